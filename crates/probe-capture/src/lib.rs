@@ -1,0 +1,1 @@
+//! `probe_capture`: work in progress; see the workspace README.

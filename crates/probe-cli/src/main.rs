@@ -1,0 +1,2 @@
+//! The `probes` command.
+fn main() {}

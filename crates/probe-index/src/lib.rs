@@ -1,0 +1,1 @@
+//! `probe_index`: work in progress; see the workspace README.

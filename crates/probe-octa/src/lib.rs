@@ -1,0 +1,1 @@
+//! `probe_octa`: work in progress; see the workspace README.

@@ -1,0 +1,1 @@
+//! `probe_place`: work in progress; see the workspace README.

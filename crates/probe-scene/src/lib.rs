@@ -1,0 +1,1 @@
+//! `probe_scene`: work in progress; see the workspace README.

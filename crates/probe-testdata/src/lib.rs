@@ -1,0 +1,52 @@
+//! Locates the shared test scenes (`../shared/scenes/` beside the workspace root) for the
+//! workspace's tests, examples and benchmarks, so that no test spells a relative path itself.
+//!
+//! The folder can be moved with the `PROBE_SCENES_DIR` environment variable.
+//!
+//! ```
+//! let sponza = probe_testdata::scene_path(probe_testdata::SPONZA);
+//! assert!(sponza.ends_with("sponza/Sponza_basecolor.gltf"));
+//! ```
+
+use std::path::PathBuf;
+
+/// The classic Cornell box (32 triangles, emissive ceiling quad).
+pub const CORNELL_BOX: &str = "cornell_box/CornellBox-Original.gltf";
+/// Crytek Sponza with mean-colour textures (262,087 instanced triangles, 4 cameras, no lights).
+pub const SPONZA: &str = "sponza/Sponza_basecolor.gltf";
+/// Sponza as published: requires `AMD_split_roughnessMetallic` and misses 83 images; must be refused.
+pub const SPONZA_AS_PUBLISHED: &str = "sponza/Sponza.gltf";
+/// The Breakfast room (262,687 instanced triangles, 3 cameras, no lights).
+pub const BREAKFAST_ROOM: &str = "breakfast_room/BreakfastRoom.gltf";
+/// The Godot room: one closed 10×5×10 m room with a doorway (63,720 triangles).
+pub const GODOT_ROOM: &str = "godot_room/room.glb";
+/// One double-sided quad of zero thickness.
+pub const TWO_SIDED_PLANE: &str = "failure_cases/two_sided_plane/TwoSidedPlane.glb";
+/// One cube drawn 125 times through `EXT_mesh_gpu_instancing`.
+pub const GPU_INSTANCING: &str = "failure_cases/gpu_instancing/simple-instancing.glb";
+/// A box whose positions are all non-finite; must be refused naming the accessor.
+pub const INVALID_INFINITES: &str = "failure_cases/invalid_box_with_infinites/BoxWithInfinites.glb";
+/// A primitive with an index past the vertex count; must be refused naming the primitive.
+pub const INVALID_INDEX_OUT_OF_RANGE: &str =
+    "failure_cases/invalid_index_out_of_range/IndexOutOfRange.gltf";
+/// The folder of the 16 primitive-mode test files.
+pub const PRIMITIVE_MODES_DIR: &str = "failure_cases/primitive_modes";
+
+/// The folder that holds the shared scenes.
+pub fn scenes_dir() -> PathBuf {
+    match std::env::var_os("PROBE_SCENES_DIR") {
+        Some(dir) => PathBuf::from(dir),
+        None => PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/scenes")),
+    }
+}
+
+/// The path of a shared scene file or folder, given relative to the scenes folder
+/// (one of this crate's constants, or any other relative path).
+pub fn scene_path(relative: &str) -> PathBuf {
+    scenes_dir().join(relative)
+}
+
+/// Whether the shared scenes are present (they are in CI and beside every checkout here).
+pub fn scenes_available() -> bool {
+    scene_path(CORNELL_BOX).is_file()
+}

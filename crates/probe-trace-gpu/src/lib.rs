@@ -1,0 +1,1 @@
+//! `probe_trace_gpu`: work in progress; see the workspace README.

@@ -1,0 +1,1 @@
+//! Integration tests of the probes workspace live in `tests/tests/`.
