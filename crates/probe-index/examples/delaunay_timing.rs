@@ -23,7 +23,10 @@ fn main() {
                 }
             };
             if bytes.len() % 12 != 0 {
-                eprintln!("{path}: length {} is not a multiple of 12 bytes", bytes.len());
+                eprintln!(
+                    "{path}: length {} is not a multiple of 12 bytes",
+                    bytes.len()
+                );
                 std::process::exit(2);
             }
             bytes
@@ -43,7 +46,9 @@ fn main() {
                 z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
                 ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
             };
-            (0..100_000).map(|_| Vec3::new(next(), next(), next())).collect()
+            (0..100_000)
+                .map(|_| Vec3::new(next(), next(), next()))
+                .collect()
         }
     };
     let repeats: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(5);

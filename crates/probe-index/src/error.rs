@@ -20,7 +20,9 @@ pub enum DelaunayError {
     /// Fewer than four distinct points were given, so no tetrahedron exists.
     ///
     /// Fix: supply at least four probes that are not all in one plane (duplicates count once).
-    #[error("a tetrahedralization needs at least 4 distinct points; got {distinct} (of {given} given)")]
+    #[error(
+        "a tetrahedralization needs at least 4 distinct points; got {distinct} (of {given} given)"
+    )]
     TooFewPoints {
         /// Number of distinct positions.
         distinct: usize,

@@ -248,8 +248,14 @@ mod tests {
         let p2 = [0.0, 0.0, 3.0];
         let axis = projection_axis(&p0, &p1, &p2).unwrap();
         assert_eq!(in_circle_coplanar(&p0, &p1, &p2, &[1.0, 1.0, 1.0], axis), 1);
-        assert_eq!(in_circle_coplanar(&p0, &p1, &p2, &[5.0, 5.0, -7.0], axis), -1);
+        assert_eq!(
+            in_circle_coplanar(&p0, &p1, &p2, &[5.0, 5.0, -7.0], axis),
+            -1
+        );
         // The circumcentre is (1,1,1) with radius sqrt(6); (2,2,-1) = centre + (1,1,-2) is on it.
-        assert_eq!(in_circle_coplanar(&p0, &p1, &p2, &[2.0, 2.0, -1.0], axis), 0);
+        assert_eq!(
+            in_circle_coplanar(&p0, &p1, &p2, &[2.0, 2.0, -1.0], axis),
+            0
+        );
     }
 }

@@ -44,8 +44,7 @@ fn regular_grids_from_2_to_10_per_side() {
     for n in 2..=10 {
         let spacing = Vec3::new(0.5, 1.25, 2.0);
         let pts = grid(n, n, n, spacing, Vec3::new(-3.0, 1.0, 7.5));
-        let t = Tetrahedralization::build(&pts)
-            .unwrap_or_else(|e| panic!("{n}³ grid: {e}"));
+        let t = Tetrahedralization::build(&pts).unwrap_or_else(|e| panic!("{n}³ grid: {e}"));
         let side = (n - 1) as f64;
         let volume = side * 0.5 * side * 1.25 * side * 2.0;
         // Exhaustive empty-sphere check up to 6³ (≈1000 tets × 216 points), sampled beyond.
@@ -53,7 +52,11 @@ fn regular_grids_from_2_to_10_per_side() {
         assert_eq!(t.vertex_count(), n * n * n);
         // Every hull face lies on one of the 6 box planes, and the box's 6 faces of (n−1)² squares
         // take 2 triangles each.
-        assert_eq!(t.hull_faces().len(), 12 * (n - 1) * (n - 1), "{n}³ grid hull");
+        assert_eq!(
+            t.hull_faces().len(),
+            12 * (n - 1) * (n - 1),
+            "{n}³ grid hull"
+        );
     }
 }
 
@@ -73,7 +76,9 @@ fn same_result_whatever_the_input_order() {
             .tetrahedra()
             .iter()
             .map(|r| {
-                let mut v = r.vertices.map(|i| pts[i as usize].to_array().map(|x| x as i32));
+                let mut v = r
+                    .vertices
+                    .map(|i| pts[i as usize].to_array().map(|x| x as i32));
                 v.sort();
                 v
             })
@@ -221,7 +226,10 @@ fn mixed_spacing_1e6_and_1e3() {
 fn degenerate_inputs_give_clear_errors() {
     assert!(matches!(
         Tetrahedralization::build(&[]),
-        Err(DelaunayError::TooFewPoints { distinct: 0, given: 0 })
+        Err(DelaunayError::TooFewPoints {
+            distinct: 0,
+            given: 0
+        })
     ));
     assert!(matches!(
         Tetrahedralization::build(&[Vec3::ZERO, Vec3::X, Vec3::Y]),
@@ -229,7 +237,10 @@ fn degenerate_inputs_give_clear_errors() {
     ));
     assert!(matches!(
         Tetrahedralization::build(&[Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::X, Vec3::ZERO]),
-        Err(DelaunayError::TooFewPoints { distinct: 3, given: 5 })
+        Err(DelaunayError::TooFewPoints {
+            distinct: 3,
+            given: 5
+        })
     ));
     let line: Vec<Vec3> = (0..10).map(|i| Vec3::splat(i as f32)).collect();
     assert!(matches!(
@@ -332,7 +343,11 @@ fn outside_points_get_nearest_hull_face_and_clamped_weights() {
         let loc = t.locate(q).unwrap();
         let nearest = q.clamp(Vec3::ZERO, Vec3::splat(3.0));
         let expected = (q - nearest).length();
-        assert!((loc.outside_distance - expected).abs() < 1e-4, "{q}: {} vs {expected}", loc.outside_distance);
+        assert!(
+            (loc.outside_distance - expected).abs() < 1e-4,
+            "{q}: {} vs {expected}",
+            loc.outside_distance
+        );
         assert!(loc.weights.iter().all(|&w| (0.0..=1.0).contains(&w)));
         assert!((loc.weights.iter().sum::<f32>() - 1.0).abs() < 1e-5);
         assert!((reconstruct(&t, &loc) - nearest).length() < 1e-4, "{q}");
@@ -367,7 +382,10 @@ fn interpolation_is_exact_for_linear_fields() {
     let loc = t.locate(Vec3::splat(2.0)).unwrap();
     assert!(matches!(
         t.interpolate(&loc, &values[..10]),
-        Err(QueryError::ValueCountMismatch { expected: 500, got: 10 })
+        Err(QueryError::ValueCountMismatch {
+            expected: 500,
+            got: 10
+        })
     ));
     assert!(matches!(
         t.locate(Vec3::new(f32::NAN, 0.0, 0.0)),
@@ -383,7 +401,9 @@ fn neighbour_lists_match_edges() {
     let t = Tetrahedralization::build(&with_dup).unwrap();
     let (offsets, ids) = t.vertex_neighbours();
     let edges = t.edges();
-    let deg: usize = (0..pts.len()).map(|i| (offsets[i + 1] - offsets[i]) as usize).sum();
+    let deg: usize = (0..pts.len())
+        .map(|i| (offsets[i + 1] - offsets[i]) as usize)
+        .sum();
     assert_eq!(deg, edges.len() * 2);
     for &[a, b] in &edges {
         let row = |v: u32| &ids[offsets[v as usize] as usize..offsets[v as usize + 1] as usize];
@@ -476,15 +496,23 @@ fn brute_force_hull_volume(pts: &[Vec3]) -> f64 {
             })
             .collect();
         flat.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)));
-        let cross = |o: &(f64, f64, glam::DVec3), a: &(f64, f64, glam::DVec3), b: &(f64, f64, glam::DVec3)| {
+        let cross = |o: &(f64, f64, glam::DVec3),
+                     a: &(f64, f64, glam::DVec3),
+                     b: &(f64, f64, glam::DVec3)| {
             (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
         };
         let mut ring: Vec<(f64, f64, glam::DVec3)> = Vec::new();
         for pass in 0..2 {
             let start = ring.len();
-            let iter: Vec<_> = if pass == 0 { flat.clone() } else { flat.iter().rev().cloned().collect() };
+            let iter: Vec<_> = if pass == 0 {
+                flat.clone()
+            } else {
+                flat.iter().rev().cloned().collect()
+            };
             for q in iter {
-                while ring.len() >= start + 2 && cross(&ring[ring.len() - 2], &ring[ring.len() - 1], &q) <= 0.0 {
+                while ring.len() >= start + 2
+                    && cross(&ring[ring.len() - 2], &ring[ring.len() - 1], &q) <= 0.0
+                {
                     ring.pop();
                 }
                 ring.push(q);

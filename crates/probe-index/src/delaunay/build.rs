@@ -158,7 +158,7 @@ pub(crate) fn triangulate(
         stack: Vec::new(),
         boundary: Vec::new(),
         edges: EdgeTable::new(),
-        rng: SplitMix64::new(seed ^ 0x5EED_0F_DE1A),
+        rng: SplitMix64::new(seed ^ 0x005E_ED0F_DE1A),
         last: 0,
     };
     b.start(first);

@@ -126,8 +126,7 @@ impl Tetrahedralization {
                 limit,
             });
         }
-        if let Some((index, &position)) = points.iter().enumerate().find(|(_, p)| !p.is_finite())
-        {
+        if let Some((index, &position)) = points.iter().enumerate().find(|(_, p)| !p.is_finite()) {
             return Err(DelaunayError::NonFinitePoint { index, position });
         }
         // Merge duplicates exactly (−0 and +0 are the same position).
@@ -187,15 +186,15 @@ impl Tetrahedralization {
         let mut new_id = vec![u32::MAX; slots];
         let mut finite = Vec::with_capacity(slots);
         let mut ghosts = Vec::new();
-        for t in 0..slots {
+        for (t, id) in new_id.iter_mut().enumerate() {
             if !raw.is_alive(t) {
                 continue;
             }
             if raw.vertices(t).contains(&INF) {
-                new_id[t] = ghosts.len() as u32;
+                *id = ghosts.len() as u32;
                 ghosts.push(t);
             } else {
-                new_id[t] = finite.len() as u32;
+                *id = finite.len() as u32;
                 finite.push(t);
             }
         }
@@ -263,7 +262,12 @@ impl Tetrahedralization {
         let hull_of_open_face = hull
             .iter()
             .enumerate()
-            .map(|(h, f)| ((u64::from(f.tetrahedron) << 2) | u64::from(f.face), h as u32))
+            .map(|(h, f)| {
+                (
+                    (u64::from(f.tetrahedron) << 2) | u64::from(f.face),
+                    h as u32,
+                )
+            })
             .collect();
         Self {
             points,
@@ -738,11 +742,7 @@ fn barycentric_rows(v: [Vec3; 4]) -> [[f32; 4]; 3] {
 fn clamp_weights(l: [f32; 4]) -> [f32; 4] {
     let c = l.map(|x| x.max(0.0));
     let s: f32 = c.iter().sum();
-    if s > 0.0 {
-        c.map(|x| x / s)
-    } else {
-        [0.25; 4]
-    }
+    if s > 0.0 { c.map(|x| x / s) } else { [0.25; 4] }
 }
 
 /// Squared distance from `p` to triangle `abc` and the barycentric weights of the closest point

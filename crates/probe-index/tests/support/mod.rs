@@ -65,7 +65,11 @@ pub fn check_structure(t: &Tetrahedralization) -> f64 {
     let mut open = 0;
     for (i, r) in tets.iter().enumerate() {
         let [a, b, cc, d] = r.vertices.map(|v| pts[v as usize]);
-        assert!(orient(a, b, cc, d) > 0.0, "tet {i} not positive: {:?}", r.vertices);
+        assert!(
+            orient(a, b, cc, d) > 0.0,
+            "tet {i} not positive: {:?}",
+            r.vertices
+        );
         total += volume(a, b, cc, d);
         for f in 0..4 {
             let n = r.neighbours[f];
@@ -80,7 +84,10 @@ pub fn check_structure(t: &Tetrahedralization) -> f64 {
                 .position(|&x| x == i as u32)
                 .unwrap_or_else(|| panic!("tet {i} face {f}: neighbour {n} does not link back"));
             let mut f1: Vec<u32> = (0..4).filter(|&k| k != f).map(|k| r.vertices[k]).collect();
-            let mut f2: Vec<u32> = (0..4).filter(|&k| k != back).map(|k| other.vertices[k]).collect();
+            let mut f2: Vec<u32> = (0..4)
+                .filter(|&k| k != back)
+                .map(|k| other.vertices[k])
+                .collect();
             f1.sort();
             f2.sort();
             assert_eq!(f1, f2, "tet {i} face {f}: shared face differs");
@@ -95,7 +102,11 @@ pub fn check_structure(t: &Tetrahedralization) -> f64 {
     }
     for i in 0..pts.len() {
         assert!(used[t.vertex_of(i) as usize], "point {i} unused");
-        assert_eq!(pts[t.vertex_of(i) as usize], pts[i], "vertex_of maps to another position");
+        assert_eq!(
+            pts[t.vertex_of(i) as usize],
+            pts[i],
+            "vertex_of maps to another position"
+        );
     }
     total
 }
@@ -117,7 +128,11 @@ pub fn check_empty_spheres(t: &Tetrahedralization, sample: Option<(usize, u64)>)
         }
         let [a, b, cc, d] = r.vertices.map(|x| pts[x as usize]);
         let s = in_sphere(a, b, cc, d, pts[v as usize]);
-        assert!(s <= 0.0, "point {v} strictly inside the sphere of tet {ti} {:?}", r.vertices);
+        assert!(
+            s <= 0.0,
+            "point {v} strictly inside the sphere of tet {ti} {:?}",
+            r.vertices
+        );
     };
     match sample {
         None => {
@@ -157,7 +172,14 @@ pub fn check_empty_spheres(t: &Tetrahedralization, sample: Option<(usize, u64)>)
 pub fn check_all(t: &Tetrahedralization, hull_volume: Option<f64>, exhaustive: bool) {
     let total = check_structure(t);
     t.validate().expect("validate");
-    check_empty_spheres(t, if exhaustive { None } else { Some((200_000, 99)) });
+    check_empty_spheres(
+        t,
+        if exhaustive {
+            None
+        } else {
+            Some((200_000, 99))
+        },
+    );
     if let Some(v) = hull_volume {
         assert!(
             (total - v).abs() <= 1e-9 * v.abs().max(1e-30) + 1e-12 * v.abs().max(1.0),
