@@ -125,6 +125,29 @@ impl EdgeTable {
     }
 }
 
+/// `OTHER_TWO[i][j]`: the two slots of a tetrahedron other than `i` and `j` (`i ≠ j`).
+const OTHER_TWO: [[[usize; 2]; 4]; 4] = {
+    let mut table = [[[0usize; 2]; 4]; 4];
+    let mut i = 0;
+    while i < 4 {
+        let mut j = 0;
+        while j < 4 {
+            let mut n = 0;
+            let mut k = 0;
+            while k < 4 {
+                if k != i && k != j && n < 2 {
+                    table[i][j][n] = k;
+                    n += 1;
+                }
+                k += 1;
+            }
+            j += 1;
+        }
+        i += 1;
+    }
+    table
+};
+
 #[inline]
 fn edge_key(a: u32, b: u32) -> u64 {
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
@@ -385,16 +408,9 @@ impl Builder<'_> {
                     continue;
                 }
                 // The face opposite w[j] holds p and the edge of the two other vertices.
-                let mut e = [0u32; 2];
-                let mut n = 0;
-                for (k, &x) in w.iter().enumerate() {
-                    if k != i && k != j {
-                        e[n] = x;
-                        n += 1;
-                    }
-                }
+                let [k1, k2] = OTHER_TWO[i][j];
                 let me = (t << 2) | j as u32;
-                if let Some(other) = self.edges.pair(edge_key(e[0], e[1]), me) {
+                if let Some(other) = self.edges.pair(edge_key(w[k1], w[k2]), me) {
                     self.tets[t as usize].n[j] = other;
                     self.tets[(other >> 2) as usize].n[(other & 3) as usize] = me;
                 }
