@@ -403,12 +403,11 @@ impl Builder<'_> {
             let i = i as usize;
             self.tets[t as usize].n[i] = outer;
             self.tets[(outer >> 2) as usize].n[(outer & 3) as usize] = (t << 2) | i as u32;
-            for j in 0..4 {
+            for (j, &[k1, k2]) in OTHER_TWO[i].iter().enumerate() {
                 if j == i {
                     continue;
                 }
                 // The face opposite w[j] holds p and the edge of the two other vertices.
-                let [k1, k2] = OTHER_TWO[i][j];
                 let me = (t << 2) | j as u32;
                 if let Some(other) = self.edges.pair(edge_key(w[k1], w[k2]), me) {
                     self.tets[t as usize].n[j] = other;
