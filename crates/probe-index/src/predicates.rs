@@ -49,6 +49,9 @@ pub(crate) fn in_sphere(a: &P3, b: &P3, c: &P3, d: &P3, e: &P3) -> i32 {
     if let Some(s) = in_sphere_filtered(a, b, c, d, e) {
         return s;
     }
+    if let Some(s) = in_sphere_integer(a, b, c, d, e) {
+        return s;
+    }
     // Shewchuk's insphere expects his positive orientation, which is our negative one.
     let s = robust::insphere(c3(a), c3(b), c3(c), c3(d), c3(e));
     if s < 0.0 {
@@ -117,6 +120,92 @@ fn in_sphere_filtered(a: &P3, b: &P3, c: &P3, d: &P3, e: &P3) -> Option<i32> {
     } else {
         None
     }
+}
+
+/// Exact in-sphere sign in integer arithmetic, for the near-degenerate cases the filter
+/// cannot decide (every cospherical quintuple of a regular grid). Each f32-born coordinate is
+/// `m · 2^q` with a 24-bit `m`; over the common scale `2^min q` the coordinates are integers.
+/// When every difference to `e` is below L = 2^24 in magnitude, 2×2 minors are below 2L²
+/// (i64), 3×3 ones below 6L³, lifts below 3L², and the determinant below 72·L⁵ < 2^127: it is
+/// evaluated exactly in `i128`. `None` when the scale or span is too wide.
+fn in_sphere_integer(a: &P3, b: &P3, c: &P3, d: &P3, e: &P3) -> Option<i32> {
+    const LIMIT: i64 = 1 << 24;
+    let pts = [a, b, c, d, e];
+    let mut mant = [[0i64; 3]; 5];
+    let mut expo = [[0i32; 3]; 5];
+    let mut qmin = i32::MAX;
+    for (k, p) in pts.iter().enumerate() {
+        for axis in 0..3 {
+            let v = p[axis];
+            if v == 0.0 {
+                continue;
+            }
+            let bits = v.to_bits();
+            let biased = ((bits >> 52) & 0x7ff) as i32;
+            if biased == 0 || biased == 0x7ff {
+                return None;
+            }
+            let full = (bits & ((1u64 << 52) - 1)) | (1u64 << 52);
+            let tz = full.trailing_zeros();
+            let m = (full >> tz) as i64;
+            if m >= 1 << 24 {
+                return None; // not an f32 value
+            }
+            let q = biased - 1075 + tz as i32;
+            mant[k][axis] = if v < 0.0 { -m } else { m };
+            expo[k][axis] = q;
+            qmin = qmin.min(q);
+        }
+    }
+    let mut int = [[0i64; 3]; 5];
+    for k in 0..5 {
+        for axis in 0..3 {
+            if mant[k][axis] != 0 {
+                let shift = expo[k][axis] - qmin;
+                if shift > 38 {
+                    return None;
+                }
+                int[k][axis] = mant[k][axis] << shift;
+            }
+        }
+    }
+    let mut diff = [[0i64; 3]; 4];
+    for k in 0..4 {
+        for axis in 0..3 {
+            let x = int[k][axis] - int[4][axis];
+            if x.abs() >= LIMIT {
+                return None;
+            }
+            diff[k][axis] = x;
+        }
+    }
+    let [
+        [aex, aey, aez],
+        [bex, bey, bez],
+        [cex, cey, cez],
+        [dex, dey, dez],
+    ] = diff;
+    let ab = aex * bey - bex * aey;
+    let bc = bex * cey - cex * bey;
+    let cd = cex * dey - dex * cey;
+    let da = dex * aey - aex * dey;
+    let ac = aex * cey - cex * aey;
+    let bd = bex * dey - dex * bey;
+    let w = |x: i64| x as i128;
+    let abc = w(aez) * w(bc) - w(bez) * w(ac) + w(cez) * w(ab);
+    let bcd = w(bez) * w(cd) - w(cez) * w(bd) + w(dez) * w(bc);
+    let cda = w(cez) * w(da) + w(dez) * w(ac) + w(aez) * w(cd);
+    let dab = w(dez) * w(ab) + w(aez) * w(bd) + w(bez) * w(da);
+    let alift = w(aex * aex + aey * aey + aez * aez);
+    let blift = w(bex * bex + bey * bey + bez * bez);
+    let clift = w(cex * cex + cey * cey + cez * cez);
+    let dlift = w(dex * dex + dey * dey + dez * dez);
+    let det = (dlift * abc - clift * dab) + (blift * cda - alift * bcd);
+    Some(match det.cmp(&0) {
+        std::cmp::Ordering::Greater => -1,
+        std::cmp::Ordering::Less => 1,
+        std::cmp::Ordering::Equal => 0,
+    })
 }
 
 /// Sign of the 2-D orientation of `a, b, c` projected by dropping coordinate `drop`.
@@ -322,6 +411,46 @@ mod tests {
             assert_eq!(in_sphere(&p[0], &p[1], &p[2], &p[3], &p[4]), exact);
         }
         assert!(decided > 10_000, "the filter decided only {decided} cases");
+    }
+
+    #[test]
+    fn integer_path_agrees_with_the_exact_predicate() {
+        let mut rng = crate::rng::SplitMix64::new(23);
+        let mut decided = 0;
+        for i in 0..20_000 {
+            // Lattice points (scaled by awkward f32 steps), often cospherical.
+            let step = [1.0f32, 0.37, 0.1, 1e-3, 1e-7][i % 5];
+            let offset = [0.0f32, 5.3, -120.7, 0.0, 3.0e-6][i % 5];
+            let mut p: Vec<P3> = (0..5)
+                .map(|_| {
+                    let mut q = [0.0f64; 3];
+                    for v in &mut q {
+                        *v = (offset + step * (rng.below(7) as f32)) as f64;
+                    }
+                    q
+                })
+                .collect();
+            let o = orient(&p[0], &p[1], &p[2], &p[3]);
+            if o == 0 {
+                continue;
+            }
+            if o < 0 {
+                p.swap(0, 1);
+            }
+            let s = robust::insphere(c3(&p[0]), c3(&p[1]), c3(&p[2]), c3(&p[3]), c3(&p[4]));
+            let exact = if s < 0.0 {
+                1
+            } else if s > 0.0 {
+                -1
+            } else {
+                0
+            };
+            if let Some(v) = in_sphere_integer(&p[0], &p[1], &p[2], &p[3], &p[4]) {
+                assert_eq!(v, exact, "case {i}: {p:?}");
+                decided += 1;
+            }
+        }
+        assert!(decided > 10_000, "integer path decided only {decided}");
     }
 
     #[test]

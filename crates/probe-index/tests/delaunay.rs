@@ -161,6 +161,55 @@ fn points_on_a_sphere_with_exact_cospherical_lattice() {
 }
 
 #[test]
+fn random_subsets_of_an_integer_lattice_with_duplicates() {
+    // Thousands of exactly cospherical and coplanar configurations, and repeated points.
+    let mut rng = Rng(31);
+    for round in 0..3 {
+        let n = [200, 800, 3000][round];
+        let mut pts: Vec<Vec3> = (0..n)
+            .map(|_| {
+                Vec3::new(
+                    rng.below(12) as f32,
+                    rng.below(12) as f32,
+                    rng.below(12) as f32,
+                )
+            })
+            .collect();
+        // Pin the corners so the hull is the lattice's box.
+        pts.extend(grid(2, 2, 2, Vec3::splat(11.0), Vec3::ZERO));
+        let t = Tetrahedralization::build(&pts).unwrap();
+        assert!(t.duplicate_count() > 0 || n < 1000);
+        check_all(&t, Some(11.0f64.powi(3)), round == 0);
+    }
+}
+
+#[test]
+fn points_on_the_faces_of_a_cube() {
+    // Every hull face is a plane holding many points: the coplanar-hull (ghost circle) test.
+    let mut rng = Rng(32);
+    let mut pts = grid(2, 2, 2, Vec3::splat(4.0), Vec3::ZERO);
+    for _ in 0..600 {
+        let mut p = Vec3::new(
+            rng.below(9) as f32,
+            rng.below(9) as f32,
+            rng.below(9) as f32,
+        ) * 0.5;
+        let axis = rng.below(3);
+        p[axis] = if rng.below(2) == 0 { 0.0 } else { 4.0 };
+        pts.push(p);
+    }
+    let t = Tetrahedralization::build(&pts).unwrap();
+    check_all(&t, Some(64.0), false);
+    for f in t.hull_faces() {
+        // Each hull triangle lies in one face plane of the cube.
+        let v = f.vertices.map(|i| pts[i as usize]);
+        let on_plane =
+            (0..3).any(|k| v.iter().all(|p| p[k] == v[0][k]) && (v[0][k] == 0.0 || v[0][k] == 4.0));
+        assert!(on_plane, "{v:?}");
+    }
+}
+
+#[test]
 fn duplicates_are_merged_and_reported() {
     let mut pts = grid(3, 3, 3, Vec3::ONE, Vec3::ZERO);
     let n = pts.len();

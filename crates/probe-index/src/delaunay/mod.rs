@@ -479,7 +479,8 @@ impl Tetrahedralization {
         };
         let pd = p.as_dvec3().to_array();
         let mut best = (f64::INFINITY, start, [1.0f64 / 3.0; 3]);
-        let mut seen = vec![start as u32];
+        let mut seen: std::collections::HashSet<u32> =
+            std::collections::HashSet::from([start as u32]);
         let mut queue = vec![start as u32];
         while let Some(h) = queue.pop() {
             let face = &self.hull[h as usize];
@@ -489,10 +490,9 @@ impl Tetrahedralization {
                 best = (d2, h as usize, w);
             }
             for &n in &face.adjacent {
-                if seen.contains(&n) {
+                if !seen.insert(n) {
                     continue;
                 }
-                seen.push(n);
                 let nf = &self.hull[n as usize];
                 let [x, y, z] = nf
                     .vertices
