@@ -1,7 +1,7 @@
 //! Times `Tetrahedralization::build` on points read from a file, for the Qhull comparison in
 //! `scripts/qhull_compare.py`.
 //!
-//! Usage: `cargo run --release -p probe-index --example delaunay_timing -- POINTS.f32 [REPEATS] [--validate]`
+//! Usage: `cargo run --release -p probe-index --example delaunay_timing -- POINTS.f32 [REPEATS] [--validate] [--locate]`
 //! where `POINTS.f32` holds little-endian f32 triples (x, y, z). Without a file it times 100,000
 //! seeded uniform points in the unit cube. Prints one line per run and a final
 //! `median_seconds=…` line.
@@ -85,6 +85,53 @@ fn main() {
             t.validate(),
             t.hull_faces().len()
         );
+    }
+    if args.iter().any(|a| a == "--locate") {
+        // Point location: 1,000,000 queries. Coherent: a random walk of small steps, each walk
+        // starting from the previous answer; incoherent: independent uniform points in the
+        // points' bounding box, located by jump-and-walk.
+        let t = Tetrahedralization::build(&points).expect("built above");
+        let (lo, hi) = points.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        );
+        let mut state = 7u64;
+        let mut unit = move || {
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let extent = hi - lo;
+        let step = extent * 0.002;
+        for (name, coherent) in [("coherent", true), ("incoherent", false)] {
+            let mut p = (lo + hi) * 0.5;
+            let mut start = 0;
+            let mut steps = 0u64;
+            let queries = 1_000_000;
+            let clock = Instant::now();
+            for _ in 0..queries {
+                p = if coherent {
+                    (p + (Vec3::new(unit(), unit(), unit()) * 2.0 - 1.0) * step).clamp(lo, hi)
+                } else {
+                    lo + Vec3::new(unit(), unit(), unit()) * extent
+                };
+                let loc = if coherent {
+                    t.locate_from(p, start).expect("finite")
+                } else {
+                    t.locate(p).expect("finite")
+                };
+                start = loc.tetrahedron;
+                steps += u64::from(loc.steps);
+            }
+            let seconds = clock.elapsed().as_secs_f64();
+            println!(
+                "locate_{name}: {queries} queries, {:.3} us/query, {:.1} tetrahedra visited/query",
+                seconds * 1e6 / queries as f64,
+                steps as f64 / queries as f64
+            );
+        }
     }
     times.sort_by(f64::total_cmp);
     println!("median_seconds={:.4}", times[times.len() / 2]);

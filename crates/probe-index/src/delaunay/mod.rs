@@ -395,12 +395,28 @@ impl Tetrahedralization {
         (offsets, ids)
     }
 
-    /// Locates `p` starting from tetrahedron 0. See [`Self::locate_from`].
+    /// Locates `p` without a cached start: jump-and-walk (Mücke, Saias & Zhu 1996) — the walk
+    /// starts from the nearest of about `tetrahedra^⅓` evenly spread tetrahedra. See
+    /// [`Self::locate_from`].
     ///
     /// # Errors
     /// [`QueryError::NonFinitePosition`] if `p` has a NaN or infinite coordinate.
     pub fn locate(&self, p: Vec3) -> Result<Location, QueryError> {
-        self.locate_from(p, 0)
+        if !p.is_finite() {
+            return Err(QueryError::NonFinitePosition { position: p });
+        }
+        let n = self.records.len();
+        let samples = ((n as f64).cbrt().ceil() as usize).max(1);
+        let stride = (n / samples).max(1);
+        let mut best = (f32::INFINITY, 0u32);
+        for t in (0..n).step_by(stride) {
+            let v = self.records[t].vertices[0];
+            let d = (self.points[v as usize] - p).length_squared();
+            if d < best.0 {
+                best = (d, t as u32);
+            }
+        }
+        self.locate_from(p, best.1)
     }
 
     /// Locates `p` by a barycentric walk from tetrahedron `start` (seed 002 §3.2.1: pass the
@@ -420,8 +436,7 @@ impl Tetrahedralization {
         } else {
             0
         };
-        let mut visited: Vec<u32> = Vec::with_capacity(32);
-        visited.push(t);
+        let mut visited = Visited::new(t);
         loop {
             let record = &self.records[t as usize];
             let l = record.barycentric_of(p);
@@ -436,14 +451,14 @@ impl Tetrahedralization {
                 if n == NO_NEIGHBOUR {
                     return Ok(self.outside(p, t, i, visited.len() as u32));
                 }
-                if !visited.contains(&n) {
+                if !visited.contains(n) {
                     next = Some(n);
                     break;
                 }
             }
             match next {
                 Some(n) => {
-                    visited.push(n);
+                    visited.insert(n);
                     t = n;
                 }
                 None => {
@@ -710,6 +725,50 @@ impl std::hash::Hasher for MixHasher {
     }
     fn write_usize(&mut self, x: usize) {
         self.0 = (self.0.rotate_left(21) ^ x as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
+}
+
+/// The tetrahedra a walk has visited: a short list, becoming a hash set for long walks.
+struct Visited {
+    list: Vec<u32>,
+    set: Option<std::collections::HashSet<u32>>,
+}
+
+impl Visited {
+    const LIST_LIMIT: usize = 24;
+
+    fn new(first: u32) -> Self {
+        let mut list = Vec::with_capacity(Self::LIST_LIMIT);
+        list.push(first);
+        Self { list, set: None }
+    }
+
+    fn contains(&self, t: u32) -> bool {
+        match &self.set {
+            Some(set) => set.contains(&t),
+            None => self.list.contains(&t),
+        }
+    }
+
+    fn insert(&mut self, t: u32) {
+        match &mut self.set {
+            Some(set) => {
+                set.insert(t);
+            }
+            None if self.list.len() < Self::LIST_LIMIT => self.list.push(t),
+            None => {
+                let mut set: std::collections::HashSet<u32> = self.list.drain(..).collect();
+                set.insert(t);
+                self.set = Some(set);
+            }
+        }
+    }
+
+    fn len(&self) -> usize {
+        match &self.set {
+            Some(set) => set.len(),
+            None => self.list.len(),
+        }
     }
 }
 
