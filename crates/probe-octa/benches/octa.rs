@@ -8,7 +8,8 @@ use std::hint::black_box;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec2, Vec3};
 use probe_octa::{
-    FineRead, MinMaxPyramid, OctaMap, decode, decode_snorm16, encode, encode_snorm16, split_ray,
+    CubeMap, FineRead, MinMaxPyramid, OctaMap, decode, decode_snorm16, default_sharpness,
+    distance_moments, encode, encode_snorm16, irradiance_map, split_ray,
 };
 
 /// Deterministic, well-spread directions (golden-ratio points decoded from the square).
@@ -115,5 +116,27 @@ fn pyramids(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, encoding, sampling, pyramids);
+fn filters(c: &mut Criterion) {
+    let mut group = c.benchmark_group("filters");
+    group.sample_size(10);
+    let distance = OctaMap::from_fn(256, |d| 2.0 + d.x * d.y - 0.5 * d.z).unwrap();
+    group.bench_function("distance_moments_256_to_14_p50", |b| {
+        b.iter(|| distance_moments(black_box(&distance), 14, 50.0).unwrap())
+    });
+    let radiance = OctaMap::from_fn(128, |d| Vec3::new(d.x.max(0.0), 0.5, d.z * d.z)).unwrap();
+    group.bench_function("irradiance_128_to_6", |b| {
+        b.iter(|| irradiance_map(black_box(&radiance), 6).unwrap())
+    });
+    let cube = CubeMap::from_fn(256, |d| Vec3::new(d.x.max(0.0), 0.5, d.z * d.z)).unwrap();
+    group.bench_function("cube_256_to_octa_128", |b| {
+        b.iter(|| {
+            black_box(&cube)
+                .to_octahedral(128, default_sharpness(128))
+                .unwrap()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, encoding, sampling, pyramids, filters);
 criterion_main!(benches);

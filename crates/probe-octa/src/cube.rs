@@ -232,6 +232,12 @@ impl<T: Texel> CubeMap<T> {
         // Exact texel solid angles of one face (all faces are alike).
         let face_solid_angles = face_texel_solid_angles(m);
         let power = LobePower::new(sharpness);
+        let directions: Vec<Vec3> = CubeFace::ALL
+            .iter()
+            .flat_map(|&face| {
+                (0..m).flat_map(move |iy| (0..m).map(move |ix| texel_direction(m, face, ix, iy)))
+            })
+            .collect();
         let map = OctaMap::from_fn(resolution, |d_o| {
             let mut sum = T::zero();
             let mut weight_sum = 0.0f32;
@@ -241,13 +247,13 @@ impl<T: Texel> CubeMap<T> {
                 };
                 for iy in y0..=y1 {
                     for ix in x0..=x1 {
-                        let d_c = texel_direction(m, face, ix, iy);
-                        let cosine = d_o.dot(d_c);
+                        let index = self.index(face, ix, iy);
+                        let cosine = d_o.dot(directions[index]);
                         if cosine <= 0.0 || cosine < cos_limit {
                             continue;
                         }
                         let w = power.apply(cosine) * face_solid_angles[(iy * m + ix) as usize];
-                        sum = sum.add_scaled(self.texels[self.index(face, ix, iy)], w);
+                        sum = sum.add_scaled(self.texels[index], w);
                         weight_sum += w;
                     }
                 }

@@ -176,31 +176,53 @@ fn nearest_level(distance: &OctaMap<f32>) -> Vec<Vec2> {
 }
 
 /// Level 0 for bilinear readers: min/max over the 3×3 padded neighbourhood of each interior
-/// texel (every tap a bilinear read inside the texel can touch), separably.
+/// texel (every tap a bilinear read inside the texel can touch), separably, keeping only three
+/// rows of horizontal results at a time.
 fn bilinear_level(distance: &OctaMap<f32>) -> Vec<Vec2> {
     let layout = distance.layout();
     let n = layout.resolution() as usize;
     let side = n + 2;
     let texels = distance.texels();
-    // Horizontal 3-tap min/max for every padded row, interior columns.
-    let mut rows = Vec::with_capacity(side * n);
-    for py in 0..side {
+    // Horizontal 3-tap min/max of padded row `py`, interior columns, into `(lo, hi)`.
+    let horizontal = |py: usize, lo: &mut [f32], hi: &mut [f32]| {
         let row = &texels[py * side..(py + 1) * side];
-        for w in row.windows(3) {
-            rows.push(Vec2::new(
-                w[0].min(w[1]).min(w[2]),
-                w[0].max(w[1]).max(w[2]),
-            ));
+        for (((l, h), (a, b)), c) in lo
+            .iter_mut()
+            .zip(hi.iter_mut())
+            .zip(row.iter().zip(&row[1..]))
+            .zip(&row[2..])
+        {
+            *l = a.min(*b).min(*c);
+            *h = a.max(*b).max(*c);
         }
+    };
+    // Ring of three horizontal rows: padded rows py ≡ slot (mod 3).
+    let mut ring_min = vec![0.0f32; 3 * n];
+    let mut ring_max = vec![0.0f32; 3 * n];
+    for py in 0..2 {
+        horizontal(
+            py,
+            &mut ring_min[py * n..(py + 1) * n],
+            &mut ring_max[py * n..(py + 1) * n],
+        );
     }
-    // Vertical 3-tap over rows iy, iy+1, iy+2 of the horizontal result.
-    let mut out = Vec::with_capacity(n * n);
-    for iy in 0..n {
-        for ix in 0..n {
-            let a = rows[iy * n + ix];
-            let b = rows[(iy + 1) * n + ix];
-            let c = rows[(iy + 2) * n + ix];
-            out.push(Vec2::new(a.x.min(b.x).min(c.x), a.y.max(b.y).max(c.y)));
+    let mut out = vec![Vec2::ZERO; n * n];
+    for (iy, out_row) in out.chunks_exact_mut(n).enumerate() {
+        let newest = (iy + 2) % 3;
+        horizontal(
+            iy + 2,
+            &mut ring_min[newest * n..(newest + 1) * n],
+            &mut ring_max[newest * n..(newest + 1) * n],
+        );
+        let (m0, rest) = ring_min.split_at(n);
+        let (m1, m2) = rest.split_at(n);
+        let (x0, rest) = ring_max.split_at(n);
+        let (x1, x2) = rest.split_at(n);
+        for (ix, texel) in out_row.iter_mut().enumerate() {
+            *texel = Vec2::new(
+                m0[ix].min(m1[ix]).min(m2[ix]),
+                x0[ix].max(x1[ix]).max(x2[ix]),
+            );
         }
     }
     out
