@@ -64,10 +64,11 @@ fn main() {
     .iter()
     .zip(stats)
     {
+        let mean = sum / count as f64;
         println!(
-            "{name:26} mean {:.6} deg  max {:.6} deg",
-            sum / count as f64,
-            max
+            "{name:26} mean {mean:.6} deg  max {max:.6} deg  (mean {:.2e} rad, max {:.2e} rad)",
+            mean.to_radians(),
+            max.to_radians()
         );
     }
 }

@@ -48,8 +48,13 @@
 //!
 //! **Sampling.** Continuous padded texel coordinates are `c = 1 + (p + 1)/2 · N`, padded texel
 //! `(px, py)` spanning `[px, px+1)` with centre `px + 0.5`. A GPU samples the padded texture at
-//! `uv = c / (N + 2)` ([`OctaLayout::texture_uv`]); with bilinear filtering this equals
-//! [`OctaMap::sample`] and is continuous across every seam.
+//! `uv = c / (N + 2)` ([`OctaLayout::texture_uv`]); with bilinear filtering (and any address
+//! mode: the taps never leave the padded texture) this is [`OctaMap::sample`], continuous
+//! across every seam. Nearest reads ([`OctaMap::sample_nearest`], `textureLoad`) take interior
+//! texel `min(floor((p + 1)/2 · N), N − 1)` per axis.
+//!
+//! **Cube maps** follow the Vulkan/D3D/wgpu face table ([`CubeMap`]); **SH** coefficients the
+//! order and constants in [`ShL2Rgb`].
 //!
 //! # Example
 //!

@@ -258,9 +258,13 @@ impl<T: Texel> OctaMap<T> {
         self.layout.pad_unchecked(&mut self.texels);
     }
 
-    /// Bilinear sample in a direction, seam-correct through the padding. This is exactly what a
-    /// GPU bilinear sampler returns for the padded texture at [`OctaLayout::texture_uv`].
-    /// Directions that do not encode (zero, NaN) sample at `+z`, as [`crate::encode`] defines.
+    /// Bilinear sample in a direction, seam-correct through the padding: what a GPU bilinear
+    /// sampler returns for the padded texture at [`OctaLayout::texture_uv`] (up to the GPU's
+    /// reduced-precision filter weights). Directions that do not encode (zero, NaN) sample at
+    /// `+z`, as [`crate::encode`] defines.
+    ///
+    /// Keep texels finite: like a GPU, the blend multiplies every tap by its weight, and an
+    /// infinite texel times a zero weight is NaN. Store misses as a large finite distance.
     #[inline]
     pub fn sample(&self, direction: Vec3) -> T {
         self.sample_octa(crate::encode(direction))
