@@ -36,7 +36,10 @@ pub const PRIMITIVE_MODES_DIR: &str = "failure_cases/primitive_modes";
 pub fn scenes_dir() -> PathBuf {
     match std::env::var_os("PROBE_SCENES_DIR") {
         Some(dir) => PathBuf::from(dir),
-        None => PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/scenes")),
+        None => PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/scenes"
+        )),
     }
 }
 
