@@ -63,9 +63,9 @@
 //! - **Octree memory.** Seed 000 stored one RGBA8 voxel per cell (15–243 MB, Table 5.2). Here a
 //!   node is one `u32`, uniform subtrees (8 leaf children with the same best-4) merge into one
 //!   leaf, and identical payloads are stored once; lookups answer exactly as the full tree.
-//! - **Octahedral directions** for the neighbour maps use BRIEF's encode/decode with texel
-//!   centres at `((i + 0.5) / N) · 2 − 1`; the 15-line formula is private here so the crate
-//!   stands alone, and matches `probe-octa`'s.
+//! - **Octahedral directions** for the neighbour maps come from `probe-octa` (BRIEF's
+//!   encode/decode, texel centres at `((i + 0.5) / N) · 2 − 1`), so the tracer's texel lookup
+//!   and these tables agree by construction.
 //! - **Errors, not panics**: non-finite input, too few or coplanar points, bad parameters give a
 //!   `thiserror` enum per operation naming the item and saying how to fix it.
 
@@ -76,7 +76,6 @@ mod geometry;
 mod grid;
 mod index;
 mod nearest;
-mod octa;
 mod predicates;
 mod rng;
 mod selector;

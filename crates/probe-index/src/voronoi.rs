@@ -4,12 +4,12 @@
 //! of P's projected neighbours, baked per texel of an octahedral map (§4.1.2, Fig. 4.5–4.6).
 
 use glam::Vec3;
+use probe_octa::OctaLayout;
 use rayon::prelude::*;
 
 use crate::delaunay::Tetrahedralization;
 use crate::error::NeighbourError;
 use crate::nearest::NearestProbe;
-use crate::octa;
 use crate::selector::{ProbeCandidates, ProbeQuery, ProbeSelector};
 
 /// Sentinel for an empty neighbour slot (a probe with fewer than 4 Delaunay neighbours).
@@ -26,9 +26,11 @@ pub const NEIGHBOURS_PER_TEXEL: usize = 4;
 /// direction is the octahedral decode of `((i, j) + 0.5) / N · 2 − 1`. Slots are ordered by
 /// decreasing cosine between the texel's direction and the direction to the neighbour;
 /// unused slots hold [`NO_PROBE`]. As an `N × (N · probes)` RGBA32Uint texture, probe `p`'s map
-/// is rows `p·N .. p·N + N`. Duplicate probes get their vertex's map.
+/// is rows `p·N .. p·N + N`. Duplicate probes get their vertex's map. Texel directions are
+/// `probe_octa`'s ([`OctaLayout::texel_direction`]; no padding border here).
 #[derive(Clone, Debug)]
 pub struct VoronoiNeighbours {
+    layout: OctaLayout,
     resolution: u32,
     probe_count: usize,
     table: Vec<u32>,
@@ -46,12 +48,14 @@ impl VoronoiNeighbours {
         if !(1..=4096).contains(&resolution) {
             return Err(NeighbourError::BadResolution { resolution });
         }
+        let layout = OctaLayout::new(resolution)
+            .map_err(|_| NeighbourError::BadResolution { resolution })?;
         let points = tetrahedralization.points();
         let (offsets, ids) = tetrahedralization.vertex_neighbours();
         let n = resolution as usize;
         let texels = n * n;
         let directions: Vec<Vec3> = (0..texels)
-            .map(|t| octa::texel_direction((t % n) as u32, (t / n) as u32, resolution))
+            .map(|t| layout.texel_direction((t % n) as u32, (t / n) as u32))
             .collect();
         let mut table = vec![NO_PROBE; points.len() * texels * NEIGHBOURS_PER_TEXEL];
         table
@@ -71,6 +75,7 @@ impl VoronoiNeighbours {
                 }
             });
         Ok(Self {
+            layout,
             resolution,
             probe_count: points.len(),
             table,
@@ -118,7 +123,7 @@ impl VoronoiNeighbours {
         if !direction.is_finite() || direction == Vec3::ZERO {
             return [NO_PROBE; NEIGHBOURS_PER_TEXEL];
         }
-        let (i, j) = octa::texel_of(direction.normalize(), self.resolution);
+        let [i, j] = self.layout.texel_containing(direction);
         self.texel(probe, i, j)
     }
 }
