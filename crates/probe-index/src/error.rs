@@ -45,9 +45,9 @@ pub enum DelaunayError {
         /// Number of distinct positions.
         distinct: usize,
     },
-    /// More points than 32-bit indices can address.
+    /// More points than the 32-bit tetrahedron links can address (100 million).
     ///
-    /// Fix: split the scene into regions of fewer than 2^31 probes each.
+    /// Fix: split the scene into regions of fewer probes each.
     #[error("{given} points exceed the limit of {limit}")]
     TooManyPoints {
         /// Number of input points.

@@ -16,14 +16,16 @@ pub struct ProbeGrid {
     counts: [u32; 3],
 }
 
-/// The grid parameters for upload (32 bytes). WGSL mirror:
+/// The grid parameters for upload (48 bytes). WGSL mirror:
 ///
 /// ```wgsl
 /// struct GridParams {
 ///     origin: vec3<f32>,  // probe (0,0,0)
 ///     count_x: u32,
 ///     spacing: vec3<f32>,
-///     count_y: u32,       // count_z is implied by the probe buffer's length
+///     count_y: u32,
+///     count_z: u32,
+///     _pad0: u32, _pad1: u32, _pad2: u32,
 /// }
 /// ```
 ///
@@ -40,6 +42,10 @@ pub struct GridParams {
     pub spacing: [f32; 3],
     /// Probes along y.
     pub count_y: u32,
+    /// Probes along z.
+    pub count_z: u32,
+    /// Padding to a 16-byte multiple.
+    pub pad: [u32; 3],
 }
 
 /// The 8 probes of the grid cell around a point: slot `i` is the corner with offset
@@ -192,6 +198,8 @@ impl ProbeGrid {
             count_x: self.counts[0],
             spacing: self.spacing.to_array(),
             count_y: self.counts[1],
+            count_z: self.counts[2],
+            pad: [0; 3],
         }
     }
 }

@@ -233,3 +233,48 @@ fn voronoi_selector_starts_at_the_nearest_probe_then_follows_neighbour_maps() {
             .is_empty()
     );
 }
+
+#[test]
+fn flat_layouts_have_the_documented_sizes_and_grid_params_reproduce_the_cage() {
+    use probe_index::{GridParams, HullFace, KdNode, SvoHeader, TetRecord};
+    assert_eq!(size_of::<TetRecord>(), 80);
+    assert_eq!(size_of::<HullFace>(), 32);
+    assert_eq!(size_of::<KdNode>(), 16);
+    assert_eq!(size_of::<SvoHeader>(), 32);
+    assert_eq!(size_of::<GridParams>(), 48);
+    let grid = ProbeGrid::new(
+        Vec3::new(1.0, -2.0, 0.5),
+        Vec3::new(0.7, 1.1, 0.3),
+        [5, 4, 6],
+    )
+    .unwrap();
+    let g = grid.gpu_params();
+    let bytes: &[u8] = bytemuck::bytes_of(&g);
+    assert_eq!(bytes.len(), 48);
+    let mut rng = Rng(8);
+    for _ in 0..500 {
+        let p = Vec3::new(
+            rng.range(-1.0, 6.0),
+            rng.range(-4.0, 4.0),
+            rng.range(-1.0, 3.0),
+        );
+        // What a shader does with GridParams alone.
+        let counts = [g.count_x, g.count_y, g.count_z];
+        let nps = (p - Vec3::from(g.origin)) / Vec3::from(g.spacing);
+        let mut corner = [0u32; 3];
+        for k in 0..3 {
+            corner[k] = nps[k].floor().clamp(0.0, (counts[k] - 2) as f32) as u32;
+        }
+        let cage = grid.cage(p);
+        assert_eq!(cage.corner, corner);
+        for slot in 0..8u32 {
+            let c = [
+                corner[0] + (slot & 1),
+                corner[1] + ((slot >> 1) & 1),
+                corner[2] + (slot >> 2),
+            ];
+            let index = c[0] + g.count_x * (c[1] + g.count_y * c[2]);
+            assert_eq!(cage.probes[slot as usize], index);
+        }
+    }
+}

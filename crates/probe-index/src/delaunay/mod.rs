@@ -119,7 +119,9 @@ impl Tetrahedralization {
     /// [`DelaunayError`] for non-finite points, fewer than four distinct points, or points that
     /// are all collinear or all coplanar.
     pub fn build(points: &[Vec3]) -> Result<Self, DelaunayError> {
-        let limit = (u32::MAX / 2) as usize;
+        // Neighbour links pack a tetrahedron id and a face into 32 bits (ids below 2^30), and
+        // a tetrahedralization has about 6.7 tetrahedra per point.
+        let limit = 100_000_000;
         if points.len() > limit {
             return Err(DelaunayError::TooManyPoints {
                 given: points.len(),
