@@ -193,12 +193,14 @@ impl fmt::Display for IndexReport {
             Some(s) => writeln!(
                 f,
                 "svo: finest voxel {:.4}, {} surface + {} empty leaves ({} without a visible probe), \
-                 {} nodes / {} payloads after merging, {:.3} MiB (full tree {:.3} MiB), {:.3} s",
+                 {} node words + {} packed blocks + {} payloads after merging, {:.3} MiB \
+                 (full tree {:.3} MiB), {:.3} s",
                 s.finest_voxel_size,
                 s.surface_leaves,
                 s.empty_leaves,
                 s.leaves_without_probe,
                 s.nodes,
+                s.blocks,
                 s.payloads,
                 mib(s.bytes),
                 mib(s.full_bytes),

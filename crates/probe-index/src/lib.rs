@@ -93,5 +93,5 @@ pub use grid::{Cage, GridParams, ProbeGrid, next_cage_slot};
 pub use index::{IndexOptions, IndexReport, ProbeIndex};
 pub use nearest::{KdNode, NearestProbe};
 pub use selector::{MAX_CANDIDATES, ProbeCandidates, ProbeQuery, ProbeSelector};
-pub use svo::{SVO_LEAF_BIT, SparseVoxelOctree, SvoHeader, SvoOptions, SvoStats};
+pub use svo::{SVO_LEAF_BIT, SVO_PACKED_BIT, SparseVoxelOctree, SvoHeader, SvoOptions, SvoStats};
 pub use voronoi::{NEIGHBOURS_PER_TEXEL, NO_PROBE, VoronoiNeighbours, VoronoiSelector};

@@ -7,8 +7,10 @@
 //! points in the voxel), surfaces ranked by `|n·p̂| / d`, empty space by `1 / d`.
 //!
 //! Memory: after ranking, any node whose 8 children are leaves with the same 4 probes becomes
-//! one leaf (repeated bottom-up), and identical leaf payloads are stored once. Lookups give
-//! exactly the same answer as in the full tree, at a fraction of its size.
+//! one leaf (repeated bottom-up), and identical leaf payloads are stored once; lookups give
+//! exactly the same answer as in the full tree. Two options trade a little of seed 000's letter
+//! for far fewer nodes (both documented on [`SvoOptions`]): near-surface empty voxels rank like
+//! the surface below them, and voxels no probe sees may merge with their visible siblings.
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
@@ -24,8 +26,11 @@ use crate::rng::SplitMix64;
 use crate::selector::{ProbeCandidates, ProbeQuery, ProbeSelector};
 use crate::voronoi::NO_PROBE;
 
-/// Bit 31 of a node word: set for a leaf.
+/// Bit 31 of a node word: set for a leaf (low 31 bits: payload index).
 pub const SVO_LEAF_BIT: u32 = 1 << 31;
+/// Bit 30 of a node word (bit 31 clear): an internal node whose 8 children are all leaves,
+/// stored as a packed block of 8 × 16-bit payload indices (low 30 bits: block index).
+pub const SVO_PACKED_BIT: u32 = 1 << 30;
 
 /// Most triangle normals considered per surface leaf when ranking.
 const MAX_LEAF_NORMALS: usize = 16;
@@ -42,6 +47,18 @@ pub struct SvoOptions {
     pub max_candidates: usize,
     /// Seed of the sample points.
     pub seed: u64,
+    /// Leaves from which no probe is visible (inside closed objects, behind outer walls) hold no
+    /// information a ray can use; when set, they take their siblings' payload if that lets the
+    /// siblings merge into one leaf. Lookups elsewhere are unchanged; lookups inside such
+    /// voxels may then return the probes of the visible voxels next to them instead of none.
+    pub merge_unseen_leaves: bool,
+    /// Empty leaves in the `surface_shell_levels` finest levels (so at most
+    /// `2^(surface_shell_levels − 1)` finest voxels wide) are ranked like surfaces, with their
+    /// parent node's triangle normals (the parent always holds geometry), instead of by distance
+    /// alone: the voxels just off a surface then agree with the surface voxels, so uniform
+    /// regions merge. 0 keeps seed 000's rule exactly: only voxels that overlap triangles use
+    /// normals.
+    pub surface_shell_levels: u32,
     /// The cube's bounds; by default the bounding box of the triangles and probes, made cubic.
     pub bounds: Option<(Vec3, Vec3)>,
 }
@@ -53,6 +70,8 @@ impl Default for SvoOptions {
             visibility_samples: 4,
             max_candidates: 64,
             seed: 0,
+            surface_shell_levels: 3,
+            merge_unseen_leaves: true,
             bounds: None,
         }
     }
@@ -67,12 +86,15 @@ impl Default for SvoOptions {
 ///     depth: u32,         // subdivision depth it was built with
 ///     node_count: u32,
 ///     leaf_count: u32,
-///     _pad: u32,
+///     block_count: u32,
 /// }
-/// // nodes: array<u32>. Root is nodes[0]. A word with bit 31 set is a leaf whose payload is
-/// //   leaves[word & 0x7FFFFFFF]; otherwise it is the index of the first of 8 consecutive
-/// //   children, child slot = u32(p.x >= mid.x) | u32(p.y >= mid.y) << 1 | u32(p.z >= mid.z) << 2.
-/// // leaves: array<vec4<u32>>, best probe first, 0xFFFFFFFF for an empty slot.
+/// // nodes: array<u32>. Root is nodes[0]. Child slot inside a node of centre `mid`:
+/// //   c = u32(p.x >= mid.x) | u32(p.y >= mid.y) << 1 | u32(p.z >= mid.z) << 2.
+/// //   bit 31 set:            a leaf; its payload is leaves[word & 0x7FFFFFFF].
+/// //   bit 31 clear, 30 set:  8 leaf children packed in blocks[word & 0x3FFFFFFF] (a vec4<u32>):
+/// //                          payload index = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF.
+/// //   both clear:            children are nodes[word + c].
+/// // blocks: array<vec4<u32>>; leaves: array<vec4<u32>>, best probe first, 0xFFFFFFFF = none.
 /// ```
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -87,8 +109,8 @@ pub struct SvoHeader {
     pub node_count: u32,
     /// Number of leaf payloads.
     pub leaf_count: u32,
-    /// Padding to 32 bytes.
-    pub pad: u32,
+    /// Number of packed leaf blocks.
+    pub block_count: u32,
 }
 
 /// Counts and timings of an octree build.
@@ -106,9 +128,11 @@ pub struct SvoStats {
     pub leaves_without_probe: usize,
     /// Node words after merging.
     pub nodes: usize,
+    /// Packed blocks of 8 leaf children.
+    pub blocks: usize,
     /// Distinct leaf payloads stored.
     pub payloads: usize,
-    /// Bytes of the flat layout (header, nodes, payloads).
+    /// Bytes of the flat layout (header, nodes, packed blocks, payloads).
     pub bytes: usize,
     /// Bytes the full tree would take in the same layout without merging or sharing payloads
     /// (4 bytes per node plus 16 per leaf).
@@ -128,6 +152,7 @@ pub struct SvoStats {
 pub struct SparseVoxelOctree {
     header: SvoHeader,
     nodes: Vec<u32>,
+    blocks: Vec<[u32; 4]>,
     leaves: Vec<[u32; 4]>,
     stats: SvoStats,
 }
@@ -137,6 +162,8 @@ type ChildBlock = (Vec<[u32; 3]>, Vec<u32>, Vec<u32>);
 
 struct Level {
     coords: Vec<[u32; 3]>,
+    /// Index of each node's parent in the previous level.
+    parent: Vec<u32>,
     tri_start: Vec<u32>,
     tri_len: Vec<u32>,
     refs: Vec<u32>,
@@ -192,6 +219,7 @@ impl SparseVoxelOctree {
             .collect();
         let mut levels = vec![Level {
             coords: vec![[0, 0, 0]],
+            parent: vec![0],
             tri_start: vec![0],
             tri_len: vec![root_refs.len() as u32],
             refs: root_refs,
@@ -234,6 +262,7 @@ impl SparseVoxelOctree {
                 .collect();
             let mut next = Level {
                 coords: Vec::new(),
+                parent: internal.iter().flat_map(|&i| [i as u32; 8]).collect(),
                 tri_start: Vec::new(),
                 tri_len: Vec::new(),
                 refs: Vec::new(),
@@ -249,9 +278,9 @@ impl SparseVoxelOctree {
                 next.tri_len.extend(lens);
                 next.refs.extend(refs);
             }
-            // Only the finest level's triangle lists are needed later (surface normals), and
-            // the current one's for building the next; drop older ones.
-            if level >= 1 {
+            // Triangle lists are needed later only for the levels whose leaves (or their
+            // children) rank by surface normals; drop the others once the next level is built.
+            if level >= 1 && level - 1 + options.surface_shell_levels < depth {
                 levels[level as usize - 1].refs = Vec::new();
             }
             levels.push(next);
@@ -272,7 +301,12 @@ impl SparseVoxelOctree {
             global: usize,
             level: u32,
             coord: [u32; 3],
-            tris: Option<(u32, u32)>,
+            /// Whether triangles overlap the leaf (a surface leaf).
+            surface: bool,
+            /// Where the normals that rank this leaf come from: (level, start, len) of a
+            /// triangle list — the leaf's own (surface leaves) or its parent's (near-surface
+            /// empty leaves); `None` ranks by distance alone.
+            normals_from: Option<(u32, u32, u32)>,
         }
         let mut jobs = Vec::new();
         let mut first_child = vec![u32::MAX; total];
@@ -285,11 +319,24 @@ impl SparseVoxelOctree {
                     first_child[g] = (level_offset[li + 1] + 8 * internal_rank) as u32;
                     internal_rank += 1;
                 } else {
+                    let near_surface = li > 0 && li as u32 + options.surface_shell_levels > depth;
+                    let normals_from = if has {
+                        Some((li as u32, l.tri_start[i], l.tri_len[i]))
+                    } else if near_surface {
+                        // Every non-root node's parent overlaps geometry (only such nodes are
+                        // subdivided).
+                        let up = &levels[li - 1];
+                        let pi = l.parent[i] as usize;
+                        Some((li as u32 - 1, up.tri_start[pi], up.tri_len[pi]))
+                    } else {
+                        None
+                    };
                     jobs.push(LeafJob {
                         global: g,
                         level: li as u32,
                         coord: l.coords[i],
-                        tris: has.then(|| (l.tri_start[i], l.tri_len[i])),
+                        surface: has,
+                        normals_from,
                     });
                 }
             }
@@ -298,15 +345,16 @@ impl SparseVoxelOctree {
         // 2. Rank probes in every leaf.
         let t1 = Instant::now();
         let nearest = NearestProbe::new(probes);
-        let finest_refs = &levels[deepest as usize].refs;
         let k = options.max_candidates.min(probes.len());
         let ranked: Vec<([u32; 4], u64)> = jobs
             .par_iter()
             .map_init(Vec::new, |scratch, job| {
                 let (lo, hi) = voxel(job.level, job.coord);
-                let normals: Vec<Vec3> = match job.tris {
-                    Some((start, len)) if job.level == deepest => finest_refs
-                        [start as usize..(start + len) as usize]
+                let refs = job.normals_from.map(|(level, start, len)| {
+                    &levels[level as usize].refs[start as usize..(start + len) as usize]
+                });
+                let normals: Vec<Vec3> = match refs {
+                    Some(refs) => refs
                         .iter()
                         .filter_map(|&t| {
                             let [a, b, c] = triangles[t as usize];
@@ -352,7 +400,7 @@ impl SparseVoxelOctree {
             if best[0] == NO_PROBE {
                 leaves_without_probe += 1;
             }
-            if job.tris.is_some() {
+            if job.surface {
                 surface_leaves += 1;
             }
         }
@@ -365,33 +413,56 @@ impl SparseVoxelOctree {
                     continue;
                 }
                 let f = first_child[g] as usize;
-                let first = payload[f];
-                if (f..f + 8).all(|c| is_leaf[c] && payload[c] == first) {
+                if !(f..f + 8).all(|c| is_leaf[c]) {
+                    continue;
+                }
+                // The payload all children share; with `merge_unseen_leaves`, children that no
+                // probe sees (payload all NO_PROBE) agree with anything.
+                let unseen = |c: usize| options.merge_unseen_leaves && payload[c][0] == NO_PROBE;
+                let common = (f..f + 8)
+                    .find(|&c| !unseen(c))
+                    .map_or([NO_PROBE; 4], |c| payload[c]);
+                if (f..f + 8).all(|c| unseen(c) || payload[c] == common) {
                     is_leaf[g] = true;
-                    payload[g] = first;
+                    payload[g] = common;
                 }
             }
         }
         let mut nodes: Vec<u32> = vec![0];
+        let mut blocks: Vec<[u32; 4]> = Vec::new();
         let mut leaves: Vec<[u32; 4]> = Vec::new();
         let mut payload_id: HashMap<[u32; 4], u32> = HashMap::new();
+        let mut id_of = |p: [u32; 4]| {
+            *payload_id.entry(p).or_insert_with(|| {
+                leaves.push(p);
+                (leaves.len() - 1) as u32
+            })
+        };
         // Breadth-first: (old global id, new slot).
         let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
         while let Some((g, slot)) = queue.pop_front() {
             if is_leaf[g] {
-                let id = *payload_id.entry(payload[g]).or_insert_with(|| {
-                    leaves.push(payload[g]);
-                    (leaves.len() - 1) as u32
-                });
-                nodes[slot] = SVO_LEAF_BIT | id;
-            } else {
-                let base = nodes.len();
-                nodes[slot] = base as u32;
-                nodes.extend([0u32; 8]);
-                let f = first_child[g] as usize;
-                for c in 0..8 {
-                    queue.push_back((f + c, base + c));
+                nodes[slot] = SVO_LEAF_BIT | id_of(payload[g]);
+                continue;
+            }
+            let f = first_child[g] as usize;
+            if (f..f + 8).all(|c| is_leaf[c]) {
+                let ids: Vec<u32> = (f..f + 8).map(|c| id_of(payload[c])).collect();
+                if ids.iter().all(|&id| id <= 0xFFFF) {
+                    let mut block = [0u32; 4];
+                    for (c, &id) in ids.iter().enumerate() {
+                        block[c >> 1] |= id << (16 * (c & 1));
+                    }
+                    nodes[slot] = SVO_PACKED_BIT | blocks.len() as u32;
+                    blocks.push(block);
+                    continue;
                 }
+            }
+            let base = nodes.len();
+            nodes[slot] = base as u32;
+            nodes.extend([0u32; 8]);
+            for c in 0..8 {
+                queue.push_back((f + c, base + c));
             }
         }
         let layout_time = t2.elapsed();
@@ -402,9 +473,10 @@ impl SparseVoxelOctree {
             depth,
             node_count: nodes.len() as u32,
             leaf_count: leaves.len() as u32,
-            pad: 0,
+            block_count: blocks.len() as u32,
         };
-        let bytes = size_of::<SvoHeader>() + nodes.len() * 4 + leaves.len() * 16;
+        let bytes =
+            size_of::<SvoHeader>() + nodes.len() * 4 + blocks.len() * 16 + leaves.len() * 16;
         let stats = SvoStats {
             finest_voxel_size: (size / (1u64 << depth) as f64) as f32,
             full_nodes: total,
@@ -412,6 +484,7 @@ impl SparseVoxelOctree {
             empty_leaves: full_leaves - surface_leaves,
             leaves_without_probe,
             nodes: nodes.len(),
+            blocks: blocks.len(),
             payloads: leaves.len(),
             bytes,
             full_bytes: size_of::<SvoHeader>() + total * 4 + full_leaves * 16,
@@ -423,6 +496,7 @@ impl SparseVoxelOctree {
         Ok(Self {
             header,
             nodes,
+            blocks,
             leaves,
             stats,
         })
@@ -436,6 +510,11 @@ impl SparseVoxelOctree {
     /// The node words (layout in [`SvoHeader`]'s documentation).
     pub fn nodes(&self) -> &[u32] {
         &self.nodes
+    }
+
+    /// The packed leaf blocks (layout in [`SvoHeader`]'s documentation).
+    pub fn blocks(&self) -> &[[u32; 4]] {
+        &self.blocks
     }
 
     /// The leaf payloads: up to 4 probes, best first, [`NO_PROBE`] for empty slots.
@@ -471,6 +550,14 @@ impl SparseVoxelOctree {
             }
             size *= 0.5;
             let mid = lo + Vec3::splat(size);
+            if word & SVO_PACKED_BIT != 0 {
+                let c = usize::from(p.x >= mid.x)
+                    | usize::from(p.y >= mid.y) << 1
+                    | usize::from(p.z >= mid.z) << 2;
+                let block = self.blocks[(word & !SVO_PACKED_BIT) as usize];
+                let id = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF;
+                return (self.leaves[id as usize], level + 1);
+            }
             let mut child = 0usize;
             if p.x >= mid.x {
                 child |= 1;

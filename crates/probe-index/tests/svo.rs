@@ -5,8 +5,8 @@ mod support;
 
 use glam::Vec3;
 use probe_index::{
-    NO_PROBE, ProbeQuery, ProbeSelector, SVO_LEAF_BIT, SceneGeometry, SparseVoxelOctree, SvoError,
-    SvoOptions, triangle_overlaps_box,
+    NO_PROBE, ProbeQuery, ProbeSelector, SVO_LEAF_BIT, SVO_PACKED_BIT, SceneGeometry,
+    SparseVoxelOctree, SvoError, SvoOptions, triangle_overlaps_box,
 };
 use support::{Rng, Soup, box_triangles};
 
@@ -36,23 +36,37 @@ fn probes() -> Vec<Vec3> {
     ]
 }
 
-/// The full-tree leaf holding `p`, found independently: descend while triangles overlap.
-fn full_leaf(scene: &Soup, svo: &SparseVoxelOctree, depth: u32, p: Vec3) -> (Vec3, Vec3, bool) {
+/// The full-tree leaf holding `p`, found independently (descend while triangles overlap):
+/// its box, level, whether it overlaps triangles, and its parent's box.
+struct FullLeaf {
+    lo: Vec3,
+    hi: Vec3,
+    level: u32,
+    surface: bool,
+    parent: (Vec3, Vec3),
+}
+
+fn full_leaf(scene: &Soup, svo: &SparseVoxelOctree, depth: u32, p: Vec3) -> FullLeaf {
     let h = svo.header();
     let mut lo = Vec3::from(h.origin);
     let mut size = h.size;
+    let mut parent = (lo, lo + Vec3::splat(size));
     for level in 0..=depth {
         let hi = lo + Vec3::splat(size);
         let overlaps = scene
             .triangles
             .iter()
             .any(|t| triangle_overlaps_box(t, lo, hi));
-        if !overlaps {
-            return (lo, hi, false);
+        if !overlaps || level == depth {
+            return FullLeaf {
+                lo,
+                hi,
+                level,
+                surface: overlaps,
+                parent,
+            };
         }
-        if level == depth {
-            return (lo, hi, true);
-        }
+        parent = (lo, hi);
         size *= 0.5;
         let mid = lo + Vec3::splat(size);
         lo = Vec3::select(p.cmpge(mid), mid, lo);
@@ -60,19 +74,26 @@ fn full_leaf(scene: &Soup, svo: &SparseVoxelOctree, depth: u32, p: Vec3) -> (Vec
     unreachable!()
 }
 
-/// Seed 000's ranking from the centre only (visibility_samples = 0), computed independently.
-fn expected_payload(scene: &Soup, probes: &[Vec3], lo: Vec3, hi: Vec3, surface: bool) -> [u32; 4] {
+fn normals_in(scene: &Soup, lo: Vec3, hi: Vec3) -> Vec<Vec3> {
+    scene
+        .triangles
+        .iter()
+        .filter(|t| triangle_overlaps_box(t, lo, hi))
+        .map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize())
+        .collect()
+}
+
+/// Seed 000's ranking from the centre only (visibility_samples = 0), computed independently:
+/// visible probes by |n·p̂|/d with the given normals, or by 1/d without.
+fn expected_payload(
+    scene: &Soup,
+    probes: &[Vec3],
+    lo: Vec3,
+    hi: Vec3,
+    normals: &[Vec3],
+) -> [u32; 4] {
     let c = (lo + hi) * 0.5;
-    let normals: Vec<Vec3> = if surface {
-        scene
-            .triangles
-            .iter()
-            .filter(|t| triangle_overlaps_box(t, lo, hi))
-            .map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize())
-            .collect()
-    } else {
-        Vec::new()
-    };
+    let surface = !normals.is_empty();
     let mut scored: Vec<(f32, u32)> = probes
         .iter()
         .enumerate()
@@ -104,9 +125,12 @@ fn leaves_follow_the_geometry_and_rank_visible_probes() {
     let scene = divided_room();
     let probes = probes();
     let depth = 4;
+    // Seed 000's rules to the letter: no surface shell, no merging of unseen voxels.
     let options = SvoOptions {
         max_depth: depth,
         visibility_samples: 0,
+        surface_shell_levels: 0,
+        merge_unseen_leaves: false,
         ..SvoOptions::default()
     };
     let svo = SparseVoxelOctree::build(&scene, &probes, &options).unwrap();
@@ -114,16 +138,80 @@ fn leaves_follow_the_geometry_and_rank_visible_probes() {
     let mut surface_hits = 0;
     for _ in 0..600 {
         let p = rng.vec3(-5.2, 5.2);
-        let (lo, hi, surface) = full_leaf(&scene, &svo, depth, p);
+        let leaf = full_leaf(&scene, &svo, depth, p);
         let (got, level) = svo.lookup(p);
-        assert!(level <= depth);
-        let want = expected_payload(&scene, &probes, lo, hi, surface);
-        assert_eq!(got, want, "at {p} (leaf {lo}..{hi}, surface {surface})");
-        surface_hits += surface as usize;
+        assert!(level <= leaf.level);
+        let normals = if leaf.surface {
+            normals_in(&scene, leaf.lo, leaf.hi)
+        } else {
+            Vec::new()
+        };
+        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals);
+        assert_eq!(
+            got, want,
+            "at {p} (leaf {}..{}, surface {})",
+            leaf.lo, leaf.hi, leaf.surface
+        );
+        surface_hits += leaf.surface as usize;
     }
     assert!(
         surface_hits > 50,
         "surface leaves were sampled {surface_hits} times"
+    );
+}
+
+#[test]
+fn default_options_rank_the_surface_shell_and_only_merge_unseen_voxels() {
+    let scene = divided_room();
+    let probes = probes();
+    let depth = 5;
+    let options = SvoOptions {
+        max_depth: depth,
+        visibility_samples: 0,
+        ..SvoOptions::default()
+    };
+    assert_eq!(
+        (options.surface_shell_levels, options.merge_unseen_leaves),
+        (3, true)
+    );
+    let svo = SparseVoxelOctree::build(&scene, &probes, &options).unwrap();
+    let strict = SparseVoxelOctree::build(
+        &scene,
+        &probes,
+        &SvoOptions {
+            surface_shell_levels: 0,
+            merge_unseen_leaves: false,
+            ..options.clone()
+        },
+    )
+    .unwrap();
+    assert!(svo.memory_bytes() < strict.memory_bytes());
+    let mut rng = Rng(19);
+    let (mut shell_hits, mut unseen_hits) = (0, 0);
+    for _ in 0..600 {
+        let p = rng.vec3(-5.2, 5.2);
+        let leaf = full_leaf(&scene, &svo, depth, p);
+        // The 3 finest levels: empty leaves 1, 2 or 4 finest voxels wide.
+        let in_shell = !leaf.surface && leaf.level > 0 && leaf.level + 3 > depth;
+        let normals = if leaf.surface {
+            normals_in(&scene, leaf.lo, leaf.hi)
+        } else if in_shell {
+            normals_in(&scene, leaf.parent.0, leaf.parent.1)
+        } else {
+            Vec::new()
+        };
+        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals);
+        let (got, _) = svo.lookup(p);
+        if want[0] == NO_PROBE {
+            unseen_hits += 1; // any sibling's payload may stand in
+        } else {
+            assert_eq!(got, want, "at {p}");
+        }
+        shell_hits += in_shell as usize;
+    }
+    assert!(
+        shell_hits > 20 && unseen_hits > 0,
+        "{shell_hits} {unseen_hits}"
     );
 }
 
@@ -180,18 +268,27 @@ fn flat_layout_is_consistent_and_smaller_than_the_full_tree() {
     let h = svo.header();
     assert_eq!(h.node_count as usize, svo.nodes().len());
     assert_eq!(h.leaf_count as usize, svo.leaves().len());
+    assert_eq!(h.block_count as usize, svo.blocks().len());
+    assert!(!svo.blocks().is_empty());
     assert_eq!(
         svo.memory_bytes(),
-        32 + svo.nodes().len() * 4 + svo.leaves().len() * 16
+        32 + svo.nodes().len() * 4 + svo.blocks().len() * 16 + svo.leaves().len() * 16
     );
     assert!(s.nodes < s.full_nodes, "{} vs {}", s.nodes, s.full_nodes);
     assert!(s.bytes < s.full_bytes);
     assert!(s.surface_leaves > 0 && s.empty_leaves > 0);
     assert!((s.finest_voxel_size - h.size / 32.0).abs() < 1e-6);
-    // Every internal word points to 8 in-range children; every leaf word to a payload.
+    // Every word points in range: leaves to payloads, packed blocks to blocks of 8 payload
+    // ids, internal words to 8 children.
     for &w in svo.nodes() {
         if w & SVO_LEAF_BIT != 0 {
             assert!(((w & !SVO_LEAF_BIT) as usize) < svo.leaves().len());
+        } else if w & SVO_PACKED_BIT != 0 {
+            let block = svo.blocks()[(w & !SVO_PACKED_BIT) as usize];
+            for c in 0..8 {
+                let id = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF;
+                assert!((id as usize) < svo.leaves().len());
+            }
         } else {
             assert!(w as usize + 8 <= svo.nodes().len() && w > 0);
         }
