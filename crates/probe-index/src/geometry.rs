@@ -46,6 +46,44 @@ pub trait SceneGeometry: Sync {
     }
 }
 
+#[cfg(feature = "scene")]
+impl SceneGeometry for probe_scene::Scene {
+    fn triangle_count(&self) -> usize {
+        self.triangles().len()
+    }
+
+    fn triangle(&self, index: usize) -> [Vec3; 3] {
+        self.triangles()[index].positions
+    }
+
+    fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
+        let ray = probe_scene::Ray { origin, direction };
+        probe_scene::Scene::closest_hit(self, &ray, max_distance)
+            .filter(|hit| hit.t > 0.0)
+            .map(|hit| RayHit {
+                distance: hit.t,
+                normal: hit.geometric_normal,
+            })
+    }
+
+    /// An any-hit query (`Scene::occluded`) over the segment shrunk by a relative 1e-4 at
+    /// both ends.
+    fn segment_visible(&self, from: Vec3, to: Vec3) -> bool {
+        let d = to - from;
+        let len = d.length();
+        if len <= f32::EPSILON {
+            return true;
+        }
+        let margin = len * 1e-4;
+        let direction = d / len;
+        let ray = probe_scene::Ray {
+            origin: from + direction * margin,
+            direction,
+        };
+        !self.occluded(&ray, len - 2.0 * margin)
+    }
+}
+
 /// Exact-as-possible triangle/axis-aligned-box overlap by the separating-axis theorem
 /// (Akenine-Möller 2001: 3 box normals, the triangle normal and 9 edge cross products),
 /// evaluated in f64 on a box enlarged by a relative 1e-9 so that rounding can only report an

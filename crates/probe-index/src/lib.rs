@@ -15,7 +15,8 @@
 //!   [`GridParams`]).
 //! - [`ProbeIndex`] builds them all and returns an [`IndexReport`] of counts, bytes and times.
 //!
-//! The crate needs no scene crate: scene queries go through the [`SceneGeometry`] trait.
+//! The crate needs no scene crate: scene queries go through the [`SceneGeometry`] trait. With
+//! the `scene` feature, `probe_scene::Scene` implements it (BVH closest-hit and any-hit).
 //!
 //! # Example
 //!

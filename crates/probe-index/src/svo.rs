@@ -3,8 +3,9 @@
 //! The tree follows the scene: a node is subdivided while triangles overlap it (exact
 //! separating-axis test) until the chosen depth, and all 8 children of a subdivided node exist,
 //! so empty space has leaves too. Each leaf holds up to 4 probes ranked by seed 000's rules:
-//! only probes visible from the leaf (segments from the voxel centre and from seeded random
-//! points in the voxel), surfaces ranked by `|n·p̂| / d`, empty space by `1 / d`.
+//! only probes visible from the leaf (segments from the voxel centre, and for empty space also
+//! from seeded random points in the voxel), surfaces ranked by `|n·p̂| / d` (the best over the
+//! leaf's first 16 non-degenerate triangles in scene order), empty space by `1 / d`.
 //!
 //! Memory: after ranking, any node whose 8 children are leaves with the same 4 probes becomes
 //! one leaf (repeated bottom-up), and identical leaf payloads are stored once; lookups give
@@ -29,7 +30,8 @@ use crate::voronoi::NO_PROBE;
 /// Bit 31 of a node word: set for a leaf (low 31 bits: payload index).
 pub const SVO_LEAF_BIT: u32 = 1 << 31;
 /// Bit 30 of a node word (bit 31 clear): an internal node whose 8 children are all leaves,
-/// stored as a packed block of 8 × 16-bit payload indices (low 30 bits: block index).
+/// stored as a packed block of 8 payload indices of [`SvoHeader::packed_bits`] bits each
+/// (low 30 bits: block index).
 pub const SVO_PACKED_BIT: u32 = 1 << 30;
 
 /// Most triangle normals considered per surface leaf when ranking.
@@ -40,8 +42,11 @@ const MAX_LEAF_NORMALS: usize = 16;
 pub struct SvoOptions {
     /// Subdivision depth: the finest voxel is the scene cube's side / 2^depth (1..=15).
     pub max_depth: u32,
-    /// Random points per leaf, besides its centre, from which probe visibility is tested
-    /// (seed 000 §4.2.2 "multi-sampling"); a probe is visible if any of them sees it.
+    /// Random points per empty-space leaf, besides its centre, from which probe visibility is
+    /// tested (seed 000 §4.2.2 "multi-sampling"); a probe is visible if any of them sees it.
+    /// Leaves ranked as surfaces are tested from their centre only, as in the seed; a surface
+    /// voxel whose centre sees no probe at all (it lies behind its surface) is tested from two
+    /// points a quarter voxel off the surface on either side instead.
     pub visibility_samples: u32,
     /// Nearest probes considered per leaf (all of them when there are fewer).
     pub max_candidates: usize,
@@ -77,7 +82,7 @@ impl Default for SvoOptions {
     }
 }
 
-/// The octree's header for upload (32 bytes). WGSL mirror:
+/// The octree's header for upload (48 bytes). WGSL mirror:
 ///
 /// ```wgsl
 /// struct SvoHeader {
@@ -87,14 +92,19 @@ impl Default for SvoOptions {
 ///     node_count: u32,
 ///     leaf_count: u32,
 ///     block_count: u32,
+///     packed_bits: u32,   // 8 or 16 (bits per payload index in a packed block); 0: none
+///     _pad0: u32, _pad1: u32, _pad2: u32,
 /// }
 /// // nodes: array<u32>. Root is nodes[0]. Child slot inside a node of centre `mid`:
 /// //   c = u32(p.x >= mid.x) | u32(p.y >= mid.y) << 1 | u32(p.z >= mid.z) << 2.
 /// //   bit 31 set:            a leaf; its payload is leaves[word & 0x7FFFFFFF].
-/// //   bit 31 clear, 30 set:  8 leaf children packed in blocks[word & 0x3FFFFFFF] (a vec4<u32>):
-/// //                          payload index = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF.
+/// //   bit 31 clear, 30 set:  8 leaf children packed in block b = word & 0x3FFFFFFF of
+/// //                          `blocks` (array<u32>, 8 · packed_bits / 32 words per block):
+/// //                          per = 32 / packed_bits;
+/// //                          w = blocks[b * (8 / per) + c / per];
+/// //                          payload index = (w >> (packed_bits * (c % per))) & ((1 << packed_bits) − 1).
 /// //   both clear:            children are nodes[word + c].
-/// // blocks: array<vec4<u32>>; leaves: array<vec4<u32>>, best probe first, 0xFFFFFFFF = none.
+/// // leaves: array<vec4<u32>>, best probe first, 0xFFFFFFFF = none.
 /// ```
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -111,6 +121,11 @@ pub struct SvoHeader {
     pub leaf_count: u32,
     /// Number of packed leaf blocks.
     pub block_count: u32,
+    /// Bits per payload index in packed blocks: 8 (≤ 256 payloads), 16 (≤ 65,536) or 0 (no
+    /// packing).
+    pub packed_bits: u32,
+    /// Padding to 48 bytes.
+    pub pad: [u32; 3],
 }
 
 /// Counts and timings of an octree build.
@@ -128,7 +143,7 @@ pub struct SvoStats {
     pub leaves_without_probe: usize,
     /// Node words after merging.
     pub nodes: usize,
-    /// Packed blocks of 8 leaf children.
+    /// Packed blocks of 8 leaf children (8 or 16 bytes each, see [`SvoHeader::packed_bits`]).
     pub blocks: usize,
     /// Distinct leaf payloads stored.
     pub payloads: usize,
@@ -152,7 +167,7 @@ pub struct SvoStats {
 pub struct SparseVoxelOctree {
     header: SvoHeader,
     nodes: Vec<u32>,
-    blocks: Vec<[u32; 4]>,
+    blocks: Vec<u32>,
     leaves: Vec<[u32; 4]>,
     stats: SvoStats,
 }
@@ -353,13 +368,17 @@ impl SparseVoxelOctree {
                 let refs = job.normals_from.map(|(level, start, len)| {
                     &levels[level as usize].refs[start as usize..(start + len) as usize]
                 });
-                let normals: Vec<Vec3> = match refs {
+                // Planes (unit normal, offset) of the triangles that rank this leaf.
+                let planes: Vec<(Vec3, f32)> = match refs {
                     Some(refs) => refs
                         .iter()
                         .filter_map(|&t| {
                             let [a, b, c] = triangles[t as usize];
                             let n = (b - a).cross(c - a);
-                            (n.length_squared() > 0.0).then(|| n.normalize())
+                            (n.length_squared() > 0.0).then(|| {
+                                let n = n.normalize();
+                                (n, n.dot(a))
+                            })
                         })
                         .take(MAX_LEAF_NORMALS)
                         .collect(),
@@ -377,7 +396,8 @@ impl SparseVoxelOctree {
                     k,
                     lo,
                     hi,
-                    &normals,
+                    &planes,
+                    job.surface,
                     options.visibility_samples,
                     seed,
                     scratch,
@@ -428,8 +448,20 @@ impl SparseVoxelOctree {
                 }
             }
         }
+        // Index width of packed blocks, from the number of distinct payloads (an upper bound on
+        // those still reachable after merging).
+        let distinct: std::collections::HashSet<[u32; 4]> = (0..total)
+            .filter(|&g| is_leaf[g])
+            .map(|g| payload[g])
+            .collect();
+        let packed_bits: u32 = match distinct.len() {
+            0..=256 => 8,
+            257..=65_536 => 16,
+            _ => 0,
+        };
+        drop(distinct);
         let mut nodes: Vec<u32> = vec![0];
-        let mut blocks: Vec<[u32; 4]> = Vec::new();
+        let mut blocks: Vec<u32> = Vec::new();
         let mut leaves: Vec<[u32; 4]> = Vec::new();
         let mut payload_id: HashMap<[u32; 4], u32> = HashMap::new();
         let mut id_of = |p: [u32; 4]| {
@@ -446,17 +478,17 @@ impl SparseVoxelOctree {
                 continue;
             }
             let f = first_child[g] as usize;
-            if (f..f + 8).all(|c| is_leaf[c]) {
-                let ids: Vec<u32> = (f..f + 8).map(|c| id_of(payload[c])).collect();
-                if ids.iter().all(|&id| id <= 0xFFFF) {
-                    let mut block = [0u32; 4];
-                    for (c, &id) in ids.iter().enumerate() {
-                        block[c >> 1] |= id << (16 * (c & 1));
-                    }
-                    nodes[slot] = SVO_PACKED_BIT | blocks.len() as u32;
-                    blocks.push(block);
-                    continue;
+            if packed_bits > 0 && (f..f + 8).all(|c| is_leaf[c]) {
+                let per = (32 / packed_bits) as usize;
+                let words = 8 / per;
+                let base = blocks.len();
+                nodes[slot] = SVO_PACKED_BIT | (base / words) as u32;
+                blocks.extend(std::iter::repeat_n(0u32, words));
+                for c in 0..8 {
+                    let id = id_of(payload[f + c]);
+                    blocks[base + c / per] |= id << (packed_bits as usize * (c % per));
                 }
+                continue;
             }
             let base = nodes.len();
             nodes[slot] = base as u32;
@@ -473,10 +505,13 @@ impl SparseVoxelOctree {
             depth,
             node_count: nodes.len() as u32,
             leaf_count: leaves.len() as u32,
-            block_count: blocks.len() as u32,
+            block_count: (blocks.len() * 4)
+                .checked_div(packed_bits as usize)
+                .unwrap_or(0) as u32,
+            packed_bits,
+            pad: [0; 3],
         };
-        let bytes =
-            size_of::<SvoHeader>() + nodes.len() * 4 + blocks.len() * 16 + leaves.len() * 16;
+        let bytes = size_of::<SvoHeader>() + nodes.len() * 4 + blocks.len() * 4 + leaves.len() * 16;
         let stats = SvoStats {
             finest_voxel_size: (size / (1u64 << depth) as f64) as f32,
             full_nodes: total,
@@ -484,7 +519,7 @@ impl SparseVoxelOctree {
             empty_leaves: full_leaves - surface_leaves,
             leaves_without_probe,
             nodes: nodes.len(),
-            blocks: blocks.len(),
+            blocks: header.block_count as usize,
             payloads: leaves.len(),
             bytes,
             full_bytes: size_of::<SvoHeader>() + total * 4 + full_leaves * 16,
@@ -512,9 +547,20 @@ impl SparseVoxelOctree {
         &self.nodes
     }
 
-    /// The packed leaf blocks (layout in [`SvoHeader`]'s documentation).
-    pub fn blocks(&self) -> &[[u32; 4]] {
+    /// The packed leaf blocks as words (layout in [`SvoHeader`]'s documentation).
+    pub fn blocks(&self) -> &[u32] {
         &self.blocks
+    }
+
+    /// Payload index of child slot `c` (0..8) of packed block `b`.
+    ///
+    /// # Panics
+    /// If `b` or `c` is out of range.
+    pub fn packed_child(&self, b: u32, c: usize) -> u32 {
+        let bits = self.header.packed_bits as usize;
+        let per = 32 / bits;
+        let w = self.blocks[b as usize * (8 / per) + c / per];
+        (w >> (bits * (c % per))) & ((1u64 << bits) - 1) as u32
     }
 
     /// The leaf payloads: up to 4 probes, best first, [`NO_PROBE`] for empty slots.
@@ -554,8 +600,7 @@ impl SparseVoxelOctree {
                 let c = usize::from(p.x >= mid.x)
                     | usize::from(p.y >= mid.y) << 1
                     | usize::from(p.z >= mid.z) << 2;
-                let block = self.blocks[(word & !SVO_PACKED_BIT) as usize];
-                let id = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF;
+                let id = self.packed_child(word & !SVO_PACKED_BIT, c);
                 return (self.leaves[id as usize], level + 1);
             }
             let mut child = 0usize;
@@ -630,7 +675,8 @@ fn rank_leaf(
     k: usize,
     lo: Vec3,
     hi: Vec3,
-    normals: &[Vec3],
+    planes: &[(Vec3, f32)],
+    surface: bool,
     samples: u32,
     seed: u64,
     scratch: &mut Vec<(u32, f32)>,
@@ -641,13 +687,13 @@ fn rank_leaf(
         .iter()
         .map(|&(probe, d2)| {
             let d = d2.sqrt().max(1e-12);
-            let score = if normals.is_empty() {
+            let score = if planes.is_empty() {
                 1.0 / d
             } else {
                 let dir = (probes[probe as usize] - centre) / d;
-                normals
+                planes
                     .iter()
-                    .map(|n| n.dot(dir).abs())
+                    .map(|(n, _)| n.dot(dir).abs())
                     .fold(0.0f32, f32::max)
                     / d
             };
@@ -655,29 +701,50 @@ fn rank_leaf(
         })
         .collect();
     scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut rng = SplitMix64::new(seed);
-    let mut points = Vec::with_capacity(samples as usize + 1);
-    points.push(centre);
-    for _ in 0..samples {
-        let u = Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
-        points.push(lo + (hi - lo) * u);
-    }
-    let mut best = [NO_PROBE; 4];
-    let mut found = 0;
+    // Seed 000 §4.2.2: surfaces are tested from the voxel centre, empty space from random
+    // points in the voxel as well.
     let mut queries = 0u64;
-    for &(_, probe) in &scored {
-        let target = probes[probe as usize];
-        let visible = points.iter().any(|&s| {
-            queries += 1;
-            geometry.segment_visible(s, target)
-        });
-        if visible {
-            best[found] = probe;
-            found += 1;
-            if found == 4 {
-                break;
+    let mut pick = |points: &[Vec3]| {
+        let mut best = [NO_PROBE; 4];
+        let mut found = 0;
+        for &(_, probe) in &scored {
+            let target = probes[probe as usize];
+            let visible = points.iter().any(|&s| {
+                queries += 1;
+                geometry.segment_visible(s, target)
+            });
+            if visible {
+                best[found] = probe;
+                found += 1;
+                if found == 4 {
+                    break;
+                }
             }
         }
-    }
+        best
+    };
+    let best = if planes.is_empty() {
+        let mut rng = SplitMix64::new(seed);
+        let mut points = Vec::with_capacity(samples as usize + 1);
+        points.push(centre);
+        for _ in 0..samples {
+            let u = Vec3::new(rng.unit_f32(), rng.unit_f32(), rng.unit_f32());
+            points.push(lo + (hi - lo) * u);
+        }
+        pick(&points)
+    } else {
+        let from_centre = pick(&[centre]);
+        match planes.first() {
+            // A surface voxel whose centre sees no probe lies behind its surface (or inside a
+            // solid): test from the centre's projection onto the surface, a quarter voxel off
+            // it on either side — deterministic, so neighbouring voxels agree.
+            Some(&(n, offset)) if surface && from_centre[0] == NO_PROBE => {
+                let on_plane = centre - n * (n.dot(centre) - offset);
+                let step = n * ((hi.x - lo.x) * 0.25);
+                pick(&[on_plane + step, on_plane - step])
+            }
+            _ => from_centre,
+        }
+    };
     (best, queries)
 }

@@ -240,7 +240,7 @@ fn flat_layouts_have_the_documented_sizes_and_grid_params_reproduce_the_cage() {
     assert_eq!(size_of::<TetRecord>(), 80);
     assert_eq!(size_of::<HullFace>(), 32);
     assert_eq!(size_of::<KdNode>(), 16);
-    assert_eq!(size_of::<SvoHeader>(), 32);
+    assert_eq!(size_of::<SvoHeader>(), 48);
     assert_eq!(size_of::<GridParams>(), 48);
     let grid = ProbeGrid::new(
         Vec3::new(1.0, -2.0, 0.5),

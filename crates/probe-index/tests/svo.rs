@@ -5,10 +5,10 @@ mod support;
 
 use glam::Vec3;
 use probe_index::{
-    NO_PROBE, ProbeQuery, ProbeSelector, SVO_LEAF_BIT, SVO_PACKED_BIT, SceneGeometry,
-    SparseVoxelOctree, SvoError, SvoOptions, triangle_overlaps_box,
+    NO_PROBE, ProbeQuery, ProbeSelector, SVO_LEAF_BIT, SVO_PACKED_BIT, SparseVoxelOctree, SvoError,
+    SvoOptions,
 };
-use support::{Rng, Soup, box_triangles};
+use support::{Rng, Soup, box_triangles, expected_payload, full_leaf, normals_in};
 
 /// A 10 m room split by a wall at x = 0 with no opening, plus a pillar in the right half.
 fn divided_room() -> Soup {
@@ -34,90 +34,6 @@ fn probes() -> Vec<Vec3> {
         Vec3::new(3.5, 2.0, 3.5),
         Vec3::new(1.0, -3.0, 3.0),
     ]
-}
-
-/// The full-tree leaf holding `p`, found independently (descend while triangles overlap):
-/// its box, level, whether it overlaps triangles, and its parent's box.
-struct FullLeaf {
-    lo: Vec3,
-    hi: Vec3,
-    level: u32,
-    surface: bool,
-    parent: (Vec3, Vec3),
-}
-
-fn full_leaf(scene: &Soup, svo: &SparseVoxelOctree, depth: u32, p: Vec3) -> FullLeaf {
-    let h = svo.header();
-    let mut lo = Vec3::from(h.origin);
-    let mut size = h.size;
-    let mut parent = (lo, lo + Vec3::splat(size));
-    for level in 0..=depth {
-        let hi = lo + Vec3::splat(size);
-        let overlaps = scene
-            .triangles
-            .iter()
-            .any(|t| triangle_overlaps_box(t, lo, hi));
-        if !overlaps || level == depth {
-            return FullLeaf {
-                lo,
-                hi,
-                level,
-                surface: overlaps,
-                parent,
-            };
-        }
-        parent = (lo, hi);
-        size *= 0.5;
-        let mid = lo + Vec3::splat(size);
-        lo = Vec3::select(p.cmpge(mid), mid, lo);
-    }
-    unreachable!()
-}
-
-fn normals_in(scene: &Soup, lo: Vec3, hi: Vec3) -> Vec<Vec3> {
-    scene
-        .triangles
-        .iter()
-        .filter(|t| triangle_overlaps_box(t, lo, hi))
-        .map(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize())
-        .collect()
-}
-
-/// Seed 000's ranking from the centre only (visibility_samples = 0), computed independently:
-/// visible probes by |n·p̂|/d with the given normals, or by 1/d without.
-fn expected_payload(
-    scene: &Soup,
-    probes: &[Vec3],
-    lo: Vec3,
-    hi: Vec3,
-    normals: &[Vec3],
-) -> [u32; 4] {
-    let c = (lo + hi) * 0.5;
-    let surface = !normals.is_empty();
-    let mut scored: Vec<(f32, u32)> = probes
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| scene.segment_visible(c, **p))
-        .map(|(i, p)| {
-            let d = (*p - c).length();
-            let s = if surface {
-                normals
-                    .iter()
-                    .map(|n| n.dot((*p - c) / d).abs())
-                    .fold(0.0, f32::max)
-                    / d
-            } else {
-                1.0 / d
-            };
-            (s, i as u32)
-        })
-        .collect();
-    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut out = [NO_PROBE; 4];
-    for (k, (_, i)) in scored.iter().take(4).enumerate() {
-        out[k] = *i;
-    }
-    out
 }
 
 #[test]
@@ -146,7 +62,7 @@ fn leaves_follow_the_geometry_and_rank_visible_probes() {
         } else {
             Vec::new()
         };
-        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals);
+        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals, leaf.surface);
         assert_eq!(
             got, want,
             "at {p} (leaf {}..{}, surface {})",
@@ -200,7 +116,7 @@ fn default_options_rank_the_surface_shell_and_only_merge_unseen_voxels() {
         } else {
             Vec::new()
         };
-        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals);
+        let want = expected_payload(&scene, &probes, leaf.lo, leaf.hi, &normals, leaf.surface);
         let (got, _) = svo.lookup(p);
         if want[0] == NO_PROBE {
             unseen_hits += 1; // any sibling's payload may stand in
@@ -268,11 +184,12 @@ fn flat_layout_is_consistent_and_smaller_than_the_full_tree() {
     let h = svo.header();
     assert_eq!(h.node_count as usize, svo.nodes().len());
     assert_eq!(h.leaf_count as usize, svo.leaves().len());
-    assert_eq!(h.block_count as usize, svo.blocks().len());
+    assert_eq!(h.packed_bits, 8, "{} payloads", svo.leaves().len());
+    assert_eq!(h.block_count as usize * 2, svo.blocks().len());
     assert!(!svo.blocks().is_empty());
     assert_eq!(
         svo.memory_bytes(),
-        32 + svo.nodes().len() * 4 + svo.blocks().len() * 16 + svo.leaves().len() * 16
+        48 + svo.nodes().len() * 4 + svo.blocks().len() * 4 + svo.leaves().len() * 16
     );
     assert!(s.nodes < s.full_nodes, "{} vs {}", s.nodes, s.full_nodes);
     assert!(s.bytes < s.full_bytes);
@@ -284,9 +201,13 @@ fn flat_layout_is_consistent_and_smaller_than_the_full_tree() {
         if w & SVO_LEAF_BIT != 0 {
             assert!(((w & !SVO_LEAF_BIT) as usize) < svo.leaves().len());
         } else if w & SVO_PACKED_BIT != 0 {
-            let block = svo.blocks()[(w & !SVO_PACKED_BIT) as usize];
+            let b = w & !SVO_PACKED_BIT;
+            assert!(b < h.block_count);
             for c in 0..8 {
-                let id = (block[c >> 1] >> (16 * (c & 1))) & 0xFFFF;
+                // The shader's formula, written out: 8-bit ids, 4 per word, 2 words per block.
+                let word = svo.blocks()[b as usize * 2 + c / 4];
+                let id = (word >> (8 * (c % 4))) & 0xFF;
+                assert_eq!(id, svo.packed_child(b, c));
                 assert!((id as usize) < svo.leaves().len());
             }
         } else {
@@ -300,7 +221,7 @@ fn flat_layout_is_consistent_and_smaller_than_the_full_tree() {
     assert_eq!(p.len(), svo.leaves().len());
     // bytemuck views for upload.
     let bytes: &[u8] = bytemuck::cast_slice(std::slice::from_ref(svo.header()));
-    assert_eq!(bytes.len(), 32);
+    assert_eq!(bytes.len(), 48);
 }
 
 #[test]

@@ -4,7 +4,10 @@
 #![allow(dead_code)]
 
 use glam::Vec3;
-use probe_index::{NO_NEIGHBOUR, RayHit, SceneGeometry, Tetrahedralization};
+use probe_index::{
+    NO_NEIGHBOUR, NO_PROBE, RayHit, SceneGeometry, SparseVoxelOctree, Tetrahedralization,
+    triangle_overlaps_box,
+};
 use robust::Coord3D;
 
 /// SplitMix64, independent of the crate's own copy.
@@ -262,4 +265,117 @@ impl SceneGeometry for Soup {
         }
         best
     }
+}
+
+// Independent recomputation of the octree's leaves and payloads.
+
+/// The full-tree leaf holding `p`, found independently (descend while triangles overlap):
+/// its box, level, whether it overlaps triangles, and its parent's box.
+pub struct FullLeaf {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    pub level: u32,
+    pub surface: bool,
+    pub parent: (Vec3, Vec3),
+}
+
+pub fn full_leaf(
+    scene: &dyn SceneGeometry,
+    svo: &SparseVoxelOctree,
+    depth: u32,
+    p: Vec3,
+) -> FullLeaf {
+    let h = svo.header();
+    let mut lo = Vec3::from(h.origin);
+    let mut size = h.size;
+    let mut parent = (lo, lo + Vec3::splat(size));
+    for level in 0..=depth {
+        let hi = lo + Vec3::splat(size);
+        let overlaps =
+            (0..scene.triangle_count()).any(|i| triangle_overlaps_box(&scene.triangle(i), lo, hi));
+        if !overlaps || level == depth {
+            return FullLeaf {
+                lo,
+                hi,
+                level,
+                surface: overlaps,
+                parent,
+            };
+        }
+        parent = (lo, hi);
+        size *= 0.5;
+        let mid = lo + Vec3::splat(size);
+        lo = Vec3::select(p.cmpge(mid), mid, lo);
+    }
+    unreachable!()
+}
+
+/// Planes (unit normal, a point) of the triangles overlapping a box, in triangle order.
+pub fn normals_in(scene: &dyn SceneGeometry, lo: Vec3, hi: Vec3) -> Vec<(Vec3, Vec3)> {
+    (0..scene.triangle_count())
+        .map(|i| scene.triangle(i))
+        .filter(|t| triangle_overlaps_box(t, lo, hi))
+        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 0.0)
+        .map(|t| ((t[1] - t[0]).cross(t[2] - t[0]).normalize(), t[0]))
+        // The crate ranks by at most 16 normals per leaf, the first in scene order.
+        .take(16)
+        .collect()
+}
+
+/// Seed 000's ranking from the centre only (visibility_samples = 0), computed independently:
+/// visible probes by |n·p̂|/d with the given planes, or by 1/d without. A voxel overlapping
+/// geometry whose centre sees nothing is tested from its centre's projection on the first
+/// plane, a quarter voxel to either side.
+pub fn expected_payload(
+    scene: &dyn SceneGeometry,
+    probes: &[Vec3],
+    lo: Vec3,
+    hi: Vec3,
+    planes: &[(Vec3, Vec3)],
+    overlaps: bool,
+) -> [u32; 4] {
+    let c = (lo + hi) * 0.5;
+    let from_centre = rank(scene, probes, c, &[c], planes);
+    if overlaps && from_centre[0] == NO_PROBE {
+        let (n, a) = planes[0];
+        let q = c - n * n.dot(c - a);
+        let step = n * (hi.x - lo.x) * 0.25;
+        return rank(scene, probes, c, &[q + step, q - step], planes);
+    }
+    from_centre
+}
+
+fn rank(
+    scene: &dyn SceneGeometry,
+    probes: &[Vec3],
+    c: Vec3,
+    from: &[Vec3],
+    planes: &[(Vec3, Vec3)],
+) -> [u32; 4] {
+    let surface = !planes.is_empty();
+    let normals: Vec<Vec3> = planes.iter().map(|p| p.0).collect();
+    let mut scored: Vec<(f32, u32)> = probes
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| from.iter().any(|&f| scene.segment_visible(f, **p)))
+        .map(|(i, p)| {
+            let d = (*p - c).length();
+            let s = if surface {
+                normals
+                    .iter()
+                    .map(|n| n.dot((*p - c) / d).abs())
+                    .fold(0.0, f32::max)
+                    / d
+            } else {
+                1.0 / d
+            };
+            (s, i as u32)
+        })
+        .collect();
+    scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut out = [NO_PROBE; 4];
+    for (k, (_, i)) in scored.iter().take(4).enumerate() {
+        out[k] = *i;
+    }
+    out
 }
