@@ -579,8 +579,8 @@ impl SparseVoxelOctree {
     }
 
     /// The best probes for position `p` (clamped into the root cube), in O(depth), and the
-    /// depth of the leaf reached. A non-finite `p` answers the root's first leaf path at
-    /// the origin corner.
+    /// depth of the leaf reached. A non-finite `p` is looked up at the cube's min corner
+    /// (the [`ProbeSelector`] answers such queries with no candidates instead).
     pub fn lookup(&self, p: Vec3) -> ([u32; 4], u32) {
         let origin = Vec3::from(self.header.origin);
         let mut size = self.header.size;
