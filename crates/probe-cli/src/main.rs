@@ -1,2 +1,47 @@
-//! The `probes` command.
-fn main() {}
+//! `probes`: place, bake, index, render, evaluate and chart light-field probes.
+//!
+//! A thin binary over the workspace crates. Every command takes `--json` to print its result
+//! as one JSON object on stdout; errors go to stderr as one line and the exit status is
+//! non-zero. Long work shows progress bars on stderr (only when stderr is a terminal).
+
+mod cli_error;
+mod commands;
+mod output;
+mod spec;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Place, bake, index and trace light-field (radiance) probes.
+#[derive(Parser, Debug)]
+#[command(name = "probes", version, about, long_about = None)]
+struct Cli {
+    /// Print the result as one JSON object on stdout instead of text.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Summarise a scene: triangles, bounds, materials, lights, cameras and load warnings.
+    SceneInfo(commands::scene_info::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::SceneInfo(args) => commands::scene_info::run(args),
+    };
+    match result {
+        Ok(report) => {
+            output::print(&*report, cli.json);
+            ExitCode::SUCCESS
+        }
+        Err(error) => {
+            eprintln!("probes: error: {}", cli_error::one_line(&error));
+            ExitCode::FAILURE
+        }
+    }
+}

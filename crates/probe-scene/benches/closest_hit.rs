@@ -4,6 +4,11 @@
 //! Run with `cargo bench -p probe-scene --bench closest_hit`. The rays are those a probe
 //! capture casts: from a 4×4×4 grid of points inside the atrium, 1,600 directions each
 //! (a Fibonacci sphere), unlimited length: 102,400 rays per iteration.
+//!
+//! Before criterion's groups, the bench prints the ratio of the two rates measured in
+//! interleaved rounds (raw, scene, raw, scene, …; median of 15), which is less sensitive to
+//! other load on the machine than two separate criterion runs. It also times loading Sponza
+//! (parse, flatten, BVH build) and the parallel batch `Scene::closest_hits`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec3, Vec3A};
@@ -13,7 +18,7 @@ use obvhs::ray::RayHit;
 use obvhs::rt_triangle::RtTriangle;
 use probe_scene::{Ray, Scene};
 use std::hint::black_box;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 fn capture_rays(scene: &Scene) -> Vec<Ray> {
     // Probe positions: a 4×4×4 grid over the atrium (inside the colonnades, above the floor).
@@ -89,33 +94,48 @@ fn bench(c: &mut Criterion) {
         rays.len()
     );
 
+    let raw_pass = || {
+        let mut sum = 0.0f32;
+        for ray in &obvhs_rays {
+            let mut hit = RayHit::none();
+            if bvh.ray_traverse(*ray, &mut hit, |ray, id| leaf_tris[id].intersect(ray)) {
+                sum += hit.t;
+            }
+        }
+        black_box(sum)
+    };
+    let scene_pass = || {
+        let mut sum = 0.0f32;
+        for ray in &rays {
+            if let Some(hit) = scene.closest_hit(ray, f32::INFINITY) {
+                sum += hit.t + hit.shading_normal.x;
+            }
+        }
+        black_box(sum)
+    };
+    let mut ratios: Vec<f64> = (0..15)
+        .map(|_| {
+            let start = Instant::now();
+            raw_pass();
+            let raw = start.elapsed().as_secs_f64();
+            let start = Instant::now();
+            scene_pass();
+            let wrapped = start.elapsed().as_secs_f64();
+            raw / wrapped
+        })
+        .collect();
+    ratios.sort_by(f64::total_cmp);
+    println!(
+        "interleaved rounds: Scene::closest_hit rate / raw obvhs rate = {:.3} (median of 15; min {:.3}, max {:.3})",
+        ratios[7], ratios[0], ratios[14]
+    );
+
     let mut group = c.benchmark_group("sponza_capture_rays");
     group.throughput(Throughput::Elements(rays.len() as u64));
     group.sample_size(20);
     group.measurement_time(Duration::from_secs(8));
-    group.bench_function("raw_obvhs_closest_hit", |b| {
-        b.iter(|| {
-            let mut sum = 0.0f32;
-            for ray in &obvhs_rays {
-                let mut hit = RayHit::none();
-                if bvh.ray_traverse(*ray, &mut hit, |ray, id| leaf_tris[id].intersect(ray)) {
-                    sum += hit.t;
-                }
-            }
-            black_box(sum)
-        })
-    });
-    group.bench_function("scene_closest_hit", |b| {
-        b.iter(|| {
-            let mut sum = 0.0f32;
-            for ray in &rays {
-                if let Some(hit) = scene.closest_hit(ray, f32::INFINITY) {
-                    sum += hit.t + hit.shading_normal.x;
-                }
-            }
-            black_box(sum)
-        })
-    });
+    group.bench_function("raw_obvhs_closest_hit", |b| b.iter(raw_pass));
+    group.bench_function("scene_closest_hit", |b| b.iter(scene_pass));
     group.bench_function("scene_occluded", |b| {
         b.iter(|| {
             let blocked = rays
@@ -125,7 +145,18 @@ fn bench(c: &mut Criterion) {
             black_box(blocked)
         })
     });
+    group.bench_function("scene_closest_hits_batch_parallel", |b| {
+        b.iter(|| black_box(scene.closest_hits(&rays, f32::INFINITY).len()))
+    });
     group.finish();
+
+    let mut load = c.benchmark_group("sponza_load");
+    load.sample_size(10);
+    load.measurement_time(Duration::from_secs(10));
+    load.bench_function("scene_load", |b| {
+        b.iter(|| black_box(Scene::load(&path).expect("Sponza").triangles().len()))
+    });
+    load.finish();
 }
 
 criterion_group!(benches, bench);

@@ -26,9 +26,8 @@ fn main() {
         .flat_map(|y| (0..width).map(move |x| (x, y)))
         .map(|(x, y)| camera.ray(x, y, width, height, Vec2::ZERO))
         .collect();
-    let mut hits = vec![None; rays.len()];
     let start = std::time::Instant::now();
-    scene.closest_hits(&rays, f32::INFINITY, &mut hits);
+    let hits = scene.closest_hits(&rays, f32::INFINITY);
     eprintln!(
         "{} rays in {:.3} s",
         rays.len(),

@@ -207,7 +207,7 @@ impl AlphaTexture {
     pub fn sample(&self, uv: Vec2) -> f32 {
         let x = self.wrap_u.texel(uv.x, self.width);
         let y = self.wrap_v.texel(uv.y, self.height);
-        f32::from(self.alpha[(y * self.width + x) as usize]) * (1.0 / 255.0)
+        f32::from(self.alpha[y as usize * self.width as usize + x as usize]) * (1.0 / 255.0)
     }
 
     /// The share of texels with alpha at or above `cutoff`.

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The most triangles a scene may hold (one bit of the BVH's triangle ids flags alpha masks).
-const MAX_TRIANGLES: usize = (1 << 31) - 1;
+pub(crate) const MAX_TRIANGLES: usize = (1 << 31) - 1;
 /// Set in a BVH slot's id when the triangle's material is an alpha mask.
 const MASKED: u32 = 1 << 31;
 
@@ -99,6 +99,13 @@ impl Scene {
     /// warning), materials reduced to constants (texture means) plus alpha masks,
     /// `KHR_lights_punctual` and perspective cameras, both placed by their nodes. What is
     /// ignored is listed in [`Scene::warnings`]; what cannot be honoured is a [`LoadError`].
+    ///
+    /// Images are read only when a material needs them (base colour, emissive and
+    /// metallic-roughness textures, decoded as PNG or JPEG for their mean; alpha-mask textures
+    /// kept); normal and occlusion maps and `MSFT_texture_dds` alternatives are never opened.
+    /// A needed image that is missing is an error naming its URI
+    /// ([`LoadError::MissingFile`]), not a silent fall-back to the material's factor, which
+    /// would change the scene's colours or cut-outs.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, LoadError> {
         let path = path.as_ref();
         let loaded = crate::gltf_load::load(path)?;
@@ -493,15 +500,14 @@ impl Scene {
         }
     }
 
-    /// [`Scene::closest_hit`] for many rays, spread over rayon's thread pool; `hits[i]` is the
-    /// hit of `rays[i]`. Panics if the slices differ in length.
-    pub fn closest_hits(&self, rays: &[Ray], t_max: f32, hits: &mut [Option<Hit>]) {
+    /// [`Scene::closest_hit`] for many rays, spread over rayon's thread pool: element `i` is
+    /// the hit of `rays[i]`.
+    pub fn closest_hits(&self, rays: &[Ray], t_max: f32) -> Vec<Option<Hit>> {
         use rayon::prelude::*;
-        assert_eq!(rays.len(), hits.len(), "one hit slot per ray");
         rays.par_iter()
-            .zip(hits.par_iter_mut())
             .with_min_len(256)
-            .for_each(|(ray, hit)| *hit = self.closest_hit(ray, t_max));
+            .map(|ray| self.closest_hit(ray, t_max))
+            .collect()
     }
 }
 

@@ -35,7 +35,7 @@ const GLTF: &str = r#"{
   "buffers": [{"uri": "BUFFER", "byteLength": 104}],
   "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 96}, {"buffer": 0, "byteOffset": 96, "byteLength": 8}],
   "accessors": [
-    {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": POSITION_COUNT, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+    {"bufferView": 0, "byteOffset": 0, "componentType": 5126, "count": POSITION_COUNT, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]SPARSE},
     {"bufferView": 0, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3"},
     {"bufferView": 0, "byteOffset": 72, "componentType": 5126, "count": 3, "type": "VEC2"},
     {"bufferView": 1, "byteOffset": 0, "componentType": 5123, "count": 3, "type": "SCALAR"}
@@ -76,6 +76,7 @@ fn write(substitutions: &[(&str, &str)]) -> (tempfile::TempDir, PathBuf) {
         ("POSITION_COUNT", "3"),
         ("IMAGE", "mask.png"),
         ("CHILDREN", ""),
+        ("SPARSE", ""),
     ];
     for (key, default) in defaults {
         let value = substitutions
@@ -131,6 +132,21 @@ fn node_transforms_mirror_and_scale() {
     assert_eq!(hit.triangle, 0);
     assert!(hit.front_face);
     assert!((hit.shading_normal - n).length() < 1e-6);
+}
+
+#[test]
+fn sparse_accessors_substitute_elements() {
+    // Replace vertex 2 with the bytes of the first normal, (√½, √½, 0): the sparse index is the
+    // u16 `2` at byte 4 of bufferView 1, the value the normal at byte 36 of bufferView 0.
+    let sparse = r#", "sparse": {"count": 1, "indices": {"bufferView": 1, "byteOffset": 4, "componentType": 5123}, "values": {"bufferView": 0, "byteOffset": 36}}"#;
+    let scene = load(&[("SPARSE", sparse)]).unwrap();
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    // Mirrored copy: T(10, 0, 0) · S(−1, 2, 1), winding flipped (p2 stored second).
+    let moved = Vec3::new(10.0 - h, 2.0 * h, 0.0);
+    assert!((scene.triangles()[0].positions[1] - moved).length() < 1e-6);
+    // The masked copy: T(10, 0, −1).
+    let moved = Vec3::new(10.0 + h, h, -1.0);
+    assert!((scene.triangles()[1].positions[2] - moved).length() < 1e-6);
 }
 
 #[test]

@@ -313,8 +313,8 @@ fn batch_matches_single_rays() {
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| camera.ray(x, y, w, h, Vec2::new(0.1, -0.2)))
         .collect();
-    let mut hits = vec![None; rays.len()];
-    scene.closest_hits(&rays, 30.0, &mut hits);
+    let hits = scene.closest_hits(&rays, 30.0);
+    assert_eq!(hits.len(), rays.len());
     let mut hit_count = 0;
     for (ray, hit) in rays.iter().zip(&hits) {
         assert_eq!(*hit, scene.closest_hit(ray, 30.0));

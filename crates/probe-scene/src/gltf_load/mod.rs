@@ -782,6 +782,13 @@ impl Loader<'_> {
             if world.iter().any(|p| !p.is_finite()) {
                 return Err(self.non_finite_transform(node));
             }
+            let count = self.triangles.len() + primitive.triangles.len();
+            if count > crate::scene::MAX_TRIANGLES {
+                return Err(LoadError::Build {
+                    path: self.path.to_owned(),
+                    source: crate::error::BuildError::TooManyTriangles { count },
+                });
+            }
             self.triangles.reserve(primitive.triangles.len());
             for &[a, b, c] in &primitive.triangles {
                 let order = if flip { [a, c, b] } else { [a, b, c] };

@@ -1,0 +1,3 @@
+//! One module per `probes` subcommand.
+
+pub mod scene_info;
