@@ -21,7 +21,7 @@ pub enum CandidateError {
     /// The voxel size is zero, negative or not a number.
     ///
     /// Fix: pass a positive, finite edge length in metres, typically 1/100 to 1/300 of the
-    /// scene's largest extent (see `VoxelGrid::build`).
+    /// scene's largest extent (see [`VoxelGrid::build`](crate::VoxelGrid::build)).
     #[error("voxel_size must be a positive, finite length in metres, got {voxel_size}")]
     InvalidVoxelSize {
         /// The value given.
@@ -29,7 +29,7 @@ pub enum CandidateError {
     },
 
     /// The voxel grid over the scene would hold more voxels than
-    /// `MAX_VOXELS`.
+    /// [`MAX_VOXELS`](crate::MAX_VOXELS).
     ///
     /// Fix: use a larger voxel size (doubling it divides the count by eight).
     #[error(
@@ -43,7 +43,7 @@ pub enum CandidateError {
         dims: [u64; 3],
         /// Their product.
         count: u64,
-        /// `MAX_VOXELS`.
+        /// [`MAX_VOXELS`](crate::MAX_VOXELS).
         limit: u64,
     },
 

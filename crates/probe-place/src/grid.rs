@@ -413,7 +413,7 @@ pub const INSIDE_BACKFACE_SHARE: f32 = 0.25;
 /// the backs of single-sided walls (behind a room's wall, under a floor) counts as inside,
 /// which is what a probe there is worth. Hits on double-sided triangles never count, so a
 /// point inside a closed *double-sided* solid is not detected here: the voxel classification
-/// (`VoxelGrid::is_free`) catches those. Non-finite points count
+/// ([`VoxelGrid::is_free`](crate::VoxelGrid::is_free)) catches those. Non-finite points count
 /// as inside (they are no valid probe positions).
 pub fn inside_geometry(scene: &Scene, point: Vec3) -> bool {
     if !point.is_finite() {
