@@ -2,7 +2,7 @@
 //! the same grid with DDGI-style probe classification and relocation.
 
 use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
-use crate::probes::ProbeSet;
+use crate::probes::{ProbeSet, json_f32};
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
 use rayon::prelude::*;
@@ -123,10 +123,12 @@ impl RegularGrid {
         parameters.insert("dims".to_owned(), Value::from(self.dims.to_vec()));
         parameters.insert(
             "bounds".to_owned(),
-            Value::from(vec![
-                self.bounds.min.to_array().to_vec(),
-                self.bounds.max.to_array().to_vec(),
-            ]),
+            Value::Array(
+                [self.bounds.min, self.bounds.max]
+                    .iter()
+                    .map(|corner| Value::Array(corner.to_array().map(json_f32).to_vec()))
+                    .collect(),
+            ),
         );
         parameters
     }

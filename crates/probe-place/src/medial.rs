@@ -4,7 +4,7 @@
 
 use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
-use crate::probes::ProbeSet;
+use crate::probes::{ProbeSet, json_f32};
 use crate::sdf::sees;
 use crate::voxel::{VoxelGrid, VoxelState};
 use glam::{Vec2, Vec3};
@@ -179,21 +179,21 @@ impl MedialParams {
         };
         put("sample_count", Value::from(self.sample_count));
         put("seed", Value::from(self.seed));
-        put("initial_radius", Value::from(self.initial_radius));
-        put("convergence", Value::from(self.convergence));
+        put("initial_radius", json_f32(self.initial_radius));
+        put("convergence", json_f32(self.convergence));
         put("iteration_limit", Value::from(self.iteration_limit));
         put(
             "denoise_preserve_degrees",
-            Value::from(self.denoise_preserve_degrees),
+            json_f32(self.denoise_preserve_degrees),
         );
         put(
             "denoise_planar_degrees",
-            Value::from(self.denoise_planar_degrees),
+            json_f32(self.denoise_planar_degrees),
         );
-        put("voxel_size", Value::from(self.voxel_size));
-        put("min_radius", Value::from(self.min_radius));
-        put("coverage_factor", Value::from(self.coverage_factor));
-        put("max_cluster_radius", Value::from(self.max_cluster_radius));
+        put("voxel_size", json_f32(self.voxel_size));
+        put("min_radius", json_f32(self.min_radius));
+        put("coverage_factor", json_f32(self.coverage_factor));
+        put("max_cluster_radius", json_f32(self.max_cluster_radius));
         put("min_cluster_balls", Value::from(self.min_cluster_balls));
         map
     }

@@ -33,8 +33,8 @@ pub const PROBE_SET_FORMAT: &str = "probes/1";
 ///
 /// - `format` (required): `"probes/1"`; other values are refused.
 /// - `positions` (required): `[x, y, z]` in metres, world space, `+Y` up; finite numbers. The
-///   writer prints each `f32` in its shortest round-trip decimal form, so positions survive a
-///   save and load bit for bit.
+///   writer prints each `f32` in its shortest round-trip decimal form (`-3.15`, `1e-7`), so
+///   positions survive a save and load bit for bit.
 /// - `method` (optional, default `"manual"`): the placement method, e.g. `"grid"`,
 ///   `"grid-relocated"`, `"sdf"`, `"medial"`.
 /// - `parameters` (optional, default `{}`): the method's parameters, any JSON; keys are written
@@ -242,12 +242,12 @@ impl ProbeSet {
         text.push_str("  \"positions\": [");
         for (i, p) in self.positions.iter().enumerate() {
             let separator = if i == 0 { "\n" } else { ",\n" };
-            // `f32`'s `Display` prints the shortest decimal that reads back to the same value,
-            // never in exponent form, and `+0` for `−0` is normalised below so that the same
-            // set gives the same bytes.
+            // `f32`'s `Debug` prints the shortest decimal that reads back to the same value
+            // (`1.0`, `0.1`, `1e-7`: valid JSON numbers), and `−0` becomes `+0` so that the
+            // same set gives the same bytes.
             let _ = write!(
                 text,
-                "{separator}    [{}, {}, {}]",
+                "{separator}    [{:?}, {:?}, {:?}]",
                 p.x + 0.0,
                 p.y + 0.0,
                 p.z + 0.0
@@ -270,6 +270,58 @@ impl ProbeSet {
             path: path.to_owned(),
             source,
         })
+    }
+}
+
+/// A JSON number for an `f32` parameter, written as its shortest decimal (`0.1`, not the
+/// `0.10000000149011612` of a plain widening to `f64`); `null` if not finite.
+pub(crate) fn json_f32(value: f32) -> Value {
+    format!("{value}")
+        .parse::<f64>()
+        .ok()
+        .and_then(serde_json::Number::from_f64)
+        .map_or(Value::Null, Value::Number)
+}
+
+/// The `probes/1` layout for serde (borrowed).
+#[derive(serde::Serialize)]
+struct ProbeFileOut<'a> {
+    format: &'static str,
+    method: &'a str,
+    parameters: &'a Map<String, Value>,
+    count: usize,
+    positions: Vec<[f32; 3]>,
+}
+
+impl serde::Serialize for ProbeSet {
+    /// The `probes/1` layout ([`ProbeSet`]), so that a set can be embedded in a report.
+    /// Non-finite positions fail (JSON has no NaN).
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        if let Some(index) = self.positions.iter().position(|p| !p.is_finite()) {
+            return Err(serde::ser::Error::custom(format!(
+                "probe set position {index} is not finite"
+            )));
+        }
+        ProbeFileOut {
+            format: PROBE_SET_FORMAT,
+            method: &self.method,
+            parameters: &self.parameters,
+            count: self.positions.len(),
+            positions: self
+                .positions
+                .iter()
+                .map(|p| (*p + 0.0).to_array())
+                .collect(),
+        }
+        .serialize(serializer)
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for ProbeSet {
+    /// Reads the `probes/1` layout with the same checks as [`ProbeSet::load`].
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let file = ProbeFile::deserialize(deserializer)?;
+        validate(file, "(deserialized)").map_err(serde::de::Error::custom)
     }
 }
 
@@ -304,6 +356,11 @@ fn parse(text: &str, origin: &str) -> Result<ProbeSet, ProbeSetError> {
         origin: origin.to_owned(),
         source,
     })?;
+    validate(file, origin)
+}
+
+/// Checks a file's fields and builds the set.
+fn validate(file: ProbeFile, origin: &str) -> Result<ProbeSet, ProbeSetError> {
     if file.format != PROBE_SET_FORMAT {
         return Err(ProbeSetError::UnsupportedFormat {
             origin: origin.to_owned(),
@@ -435,6 +492,27 @@ mod tests {
             nan.to_json(),
             Err(ProbeSetError::NonFinitePosition { index: 1, .. })
         ));
+    }
+
+    #[test]
+    fn serde_uses_the_file_layout() {
+        let set = ProbeSet::new(vec![Vec3::new(1.5, -2.0, 0.25)]);
+        let value = serde_json::to_value(&set).unwrap();
+        assert_eq!(
+            value,
+            serde_json::json!({
+                "format": "probes/1", "method": "manual", "parameters": {}, "count": 1,
+                "positions": [[1.5, -2.0, 0.25]]
+            })
+        );
+        let back: ProbeSet = serde_json::from_value(value).unwrap();
+        assert_eq!(back, set);
+        // The text writer and serde agree.
+        let from_text: Value = serde_json::from_str(&set.to_json().unwrap()).unwrap();
+        assert_eq!(from_text, serde_json::to_value(&set).unwrap());
+        let bad = serde_json::json!({"format": "probes/9", "positions": []});
+        assert!(serde_json::from_value::<ProbeSet>(bad).is_err());
+        assert!(serde_json::to_value(ProbeSet::new(vec![Vec3::NAN])).is_err());
     }
 
     #[test]

@@ -2,7 +2,7 @@
 
 use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
-use crate::probes::ProbeSet;
+use crate::probes::{ProbeSet, json_f32};
 use crate::voxel::{DistanceField, VoxelGrid, VoxelState};
 use glam::Vec3;
 use probe_scene::{Aabb, Ray, Scene};
@@ -65,19 +65,16 @@ impl SdfParams {
 
     fn to_json(&self) -> Map<String, Value> {
         let mut map = Map::new();
-        map.insert("voxel_size".to_owned(), Value::from(self.voxel_size));
-        map.insert("min_clearance".to_owned(), Value::from(self.min_clearance));
+        map.insert("voxel_size".to_owned(), json_f32(self.voxel_size));
+        map.insert("min_clearance".to_owned(), json_f32(self.min_clearance));
         map.insert(
             "min_cluster_voxels".to_owned(),
             Value::from(self.min_cluster_voxels),
         );
-        map.insert(
-            "coverage_factor".to_owned(),
-            Value::from(self.coverage_factor),
-        );
+        map.insert("coverage_factor".to_owned(), json_f32(self.coverage_factor));
         map.insert(
             "max_cluster_radius".to_owned(),
-            Value::from(self.max_cluster_radius),
+            json_f32(self.max_cluster_radius),
         );
         map
     }

@@ -40,6 +40,11 @@ fn grid_spec_over_scene_bounds() {
     assert_eq!(set.len(), 32);
     assert_eq!(set.method, "grid");
     assert_eq!(set.parameters["dims"], serde_json::json!([4, 2, 4]));
+    // Parameters are written as the shortest decimals of their f32 values.
+    assert_eq!(
+        set.parameters["bounds"],
+        serde_json::json!([[-4.2, -0.2, -4.2], [4.2, 3.2, 4.2]])
+    );
     assert_eq!(
         set.positions,
         grid_cell_centers(&scene.bounds(), BOXES_GRID)
