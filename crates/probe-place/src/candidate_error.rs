@@ -88,14 +88,14 @@ pub enum CandidateError {
         /// The value given.
         value: f64,
         /// The valid range, in words.
-        expected: Expected,
+        expected: ValidRange,
     },
 }
 
 /// The valid range of a parameter, for [`CandidateError::InvalidParameter`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
-pub enum Expected {
+pub enum ValidRange {
     /// `> 0` and finite.
     Positive,
     /// `≥ 0` and finite.
@@ -106,13 +106,13 @@ pub enum Expected {
     AtLeastOne,
 }
 
-impl fmt::Display for Expected {
+impl fmt::Display for ValidRange {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(match self {
-            Expected::Positive => "positive and finite",
-            Expected::NonNegative => "non-negative and finite",
-            Expected::UnitInterval => "in [0, 1]",
-            Expected::AtLeastOne => "at least 1",
+            ValidRange::Positive => "positive and finite",
+            ValidRange::NonNegative => "non-negative and finite",
+            ValidRange::UnitInterval => "in [0, 1]",
+            ValidRange::AtLeastOne => "at least 1",
         })
     }
 }
@@ -121,13 +121,13 @@ impl fmt::Display for Expected {
 pub(crate) fn check_param(
     parameter: &'static str,
     value: f32,
-    expected: Expected,
+    expected: ValidRange,
 ) -> Result<(), CandidateError> {
     let ok = match expected {
-        Expected::Positive => value.is_finite() && value > 0.0,
-        Expected::NonNegative => value.is_finite() && value >= 0.0,
-        Expected::UnitInterval => (0.0..=1.0).contains(&value),
-        Expected::AtLeastOne => value.is_finite() && value >= 1.0,
+        ValidRange::Positive => value.is_finite() && value > 0.0,
+        ValidRange::NonNegative => value.is_finite() && value >= 0.0,
+        ValidRange::UnitInterval => (0.0..=1.0).contains(&value),
+        ValidRange::AtLeastOne => value.is_finite() && value >= 1.0,
     };
     if ok {
         Ok(())
@@ -148,7 +148,7 @@ pub(crate) fn check_count(parameter: &'static str, value: usize) -> Result<(), C
         Err(CandidateError::InvalidParameter {
             parameter,
             value: value as f64,
-            expected: Expected::AtLeastOne,
+            expected: ValidRange::AtLeastOne,
         })
     }
 }

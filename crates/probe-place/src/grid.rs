@@ -1,7 +1,7 @@
 //! Regular probe grids, the baseline every placement is compared with, and the fair baseline:
 //! the same grid with DDGI-style probe classification and relocation.
 
-use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
+use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
 use crate::probes::{ProbeSet, json_f32};
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
@@ -174,12 +174,12 @@ impl ClassifyParams {
         check_param(
             "backface_threshold",
             self.backface_threshold,
-            Expected::UnitInterval,
+            ValidRange::UnitInterval,
         )?;
         check_param(
             "min_frontface_fraction",
             self.min_frontface_fraction,
-            Expected::NonNegative,
+            ValidRange::NonNegative,
         )?;
         if self.relocate {
             check_count("iterations", self.iterations)?;

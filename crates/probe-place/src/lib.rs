@@ -75,14 +75,14 @@ mod probes;
 mod sdf;
 mod voxel;
 
-pub use candidate_error::{CandidateError, Expected};
+pub use candidate_error::{CandidateError, ValidRange};
 pub use cluster::ClusterStats;
 pub use grid::{
     ClassifiedGrid, ClassifyParams, INSIDE_BACKFACE_SHARE, INSIDE_TEST_RAYS, MAX_GRID_DIM,
     MAX_GRID_PROBES, MAX_RELOCATION_FRACTION, RegularGrid, classify_grid, inside_geometry,
 };
 pub use medial::{
-    MedialBall, MedialCandidates, MedialParams, SurfaceSample, medial_candidates, sample_surfaces,
+    MedialBall, MedialCandidates, MedialParams, SurfacePoint, medial_candidates, sample_surfaces,
 };
 pub use probes::{PROBE_SET_FORMAT, ProbeSet, ProbeSetError};
 pub use sdf::{SdfCandidates, SdfParams, sdf_candidates};

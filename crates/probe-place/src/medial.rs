@@ -2,7 +2,7 @@
 //! weighted surface samples, the shrinking-ball algorithm (Ma et al. 2012, as in masbcpp)
 //! with its denoising, and clustering of the medial balls.
 
-use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
+use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
 use crate::probes::{ProbeSet, json_f32};
 use crate::sdf::sees;
@@ -17,7 +17,7 @@ use std::num::NonZeroUsize;
 
 /// A point on a scene surface, drawn with probability proportional to area.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SurfaceSample {
+pub struct SurfacePoint {
     /// The position, world space.
     pub position: Vec3,
     /// The triangle's unit geometric normal (front side, from its winding).
@@ -30,7 +30,7 @@ pub struct SurfaceSample {
 /// takes the triangle where the cumulative area passes `(i + ξ) / count` of the total (one
 /// uniform `ξ` per sample), then a uniform point in it. Zero-area triangles are never drawn.
 /// The same scene, count and seed give the same samples. Empty for a scene without area.
-pub fn sample_surfaces(scene: &Scene, count: usize, seed: u64) -> Vec<SurfaceSample> {
+pub fn sample_surfaces(scene: &Scene, count: usize, seed: u64) -> Vec<SurfacePoint> {
     let triangles = scene.triangles();
     let mut cumulative = Vec::with_capacity(triangles.len());
     let mut total = 0f64;
@@ -53,7 +53,7 @@ pub fn sample_surfaces(scene: &Scene, count: usize, seed: u64) -> Vec<SurfaceSam
             let (u, v): (f32, f32) = (rng.random(), rng.random());
             let root = u.sqrt();
             let barycentrics = Vec2::new(root * (1.0 - v), root * v);
-            SurfaceSample {
+            SurfacePoint {
                 position: triangle.point(barycentrics),
                 normal: triangle.geometric_normal(),
                 triangle: index as u32,
@@ -149,25 +149,29 @@ impl MedialParams {
             });
         }
         check_count("sample_count", self.sample_count)?;
-        check_param("initial_radius", self.initial_radius, Expected::Positive)?;
-        check_param("convergence", self.convergence, Expected::Positive)?;
+        check_param("initial_radius", self.initial_radius, ValidRange::Positive)?;
+        check_param("convergence", self.convergence, ValidRange::Positive)?;
         check_count("iteration_limit", self.iteration_limit)?;
         check_param(
             "denoise_preserve_degrees",
             self.denoise_preserve_degrees,
-            Expected::NonNegative,
+            ValidRange::NonNegative,
         )?;
         check_param(
             "denoise_planar_degrees",
             self.denoise_planar_degrees,
-            Expected::NonNegative,
+            ValidRange::NonNegative,
         )?;
-        check_param("min_radius", self.min_radius, Expected::NonNegative)?;
-        check_param("coverage_factor", self.coverage_factor, Expected::Positive)?;
+        check_param("min_radius", self.min_radius, ValidRange::NonNegative)?;
+        check_param(
+            "coverage_factor",
+            self.coverage_factor,
+            ValidRange::Positive,
+        )?;
         check_param(
             "max_cluster_radius",
             self.max_cluster_radius,
-            Expected::Positive,
+            ValidRange::Positive,
         )?;
         check_count("min_cluster_balls", self.min_cluster_balls)
     }
@@ -256,7 +260,7 @@ pub fn medial_candidates(
         ImmutableKdTree::new_from_slice(&points).map_err(|_| CandidateError::InvalidParameter {
             parameter: "sample_count",
             value: params.sample_count as f64,
-            expected: Expected::AtLeastOne,
+            expected: ValidRange::AtLeastOne,
         })?;
     let shrink = BallShrinker {
         tree: &tree,

@@ -1,6 +1,6 @@
 //! Candidate probes from the skeleton of the scene's distance field (seed 000 §3.1.1, Alg. 1).
 
-use crate::candidate_error::{CandidateError, Expected, check_count, check_param};
+use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
 use crate::probes::{ProbeSet, json_f32};
 use crate::voxel::{DistanceField, VoxelGrid, VoxelState};
@@ -53,13 +53,17 @@ impl SdfParams {
                 voxel_size: self.voxel_size,
             });
         }
-        check_param("min_clearance", self.min_clearance, Expected::NonNegative)?;
+        check_param("min_clearance", self.min_clearance, ValidRange::NonNegative)?;
         check_count("min_cluster_voxels", self.min_cluster_voxels)?;
-        check_param("coverage_factor", self.coverage_factor, Expected::Positive)?;
+        check_param(
+            "coverage_factor",
+            self.coverage_factor,
+            ValidRange::Positive,
+        )?;
         check_param(
             "max_cluster_radius",
             self.max_cluster_radius,
-            Expected::Positive,
+            ValidRange::Positive,
         )
     }
 
