@@ -237,9 +237,9 @@ pub struct MedialCandidates {
 ///    ball not yet covered seeds a cluster of the uncovered balls whose centres it sees
 ///    (unoccluded segment) within `coverage_factor` times its radius (at most
 ///    `max_cluster_radius`), so probes start where space is widest, their reach follows the
-///    size of the space, and every hidden region gets its own; clusters with fewer than `min_cluster_balls` are
-///    dropped; each cluster gives a probe at its mean centre,
-///    moved to the nearest member centre when the mean lies outside free space or
+///    size of the space, and every hidden region gets its own; clusters with fewer than
+///    `min_cluster_balls` are dropped; each cluster gives a probe at its mean centre, moved
+///    to the nearest member centre when the mean lies outside free space or
 ///    [`inside_geometry`](crate::inside_geometry) (dropped if none of 16 fits).
 ///
 /// Deterministic for a given seed.
