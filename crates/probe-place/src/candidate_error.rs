@@ -104,6 +104,8 @@ pub enum ValidRange {
     UnitInterval,
     /// At least one (a count).
     AtLeastOne,
+    /// A count from 1 to the given maximum.
+    CountUpTo(u64),
 }
 
 impl fmt::Display for ValidRange {
@@ -113,6 +115,7 @@ impl fmt::Display for ValidRange {
             ValidRange::NonNegative => "non-negative and finite",
             ValidRange::UnitInterval => "in [0, 1]",
             ValidRange::AtLeastOne => "at least 1",
+            ValidRange::CountUpTo(max) => return write!(f, "a count from 1 to {max}"),
         })
     }
 }
@@ -128,6 +131,7 @@ pub(crate) fn check_param(
         ValidRange::NonNegative => value.is_finite() && value >= 0.0,
         ValidRange::UnitInterval => (0.0..=1.0).contains(&value),
         ValidRange::AtLeastOne => value.is_finite() && value >= 1.0,
+        ValidRange::CountUpTo(max) => value >= 1.0 && f64::from(value) <= max as f64,
     };
     if ok {
         Ok(())
@@ -149,6 +153,23 @@ pub(crate) fn check_count(parameter: &'static str, value: usize) -> Result<(), C
             parameter,
             value: value as f64,
             expected: ValidRange::AtLeastOne,
+        })
+    }
+}
+
+/// Checks a count parameter against `1..=max`.
+pub(crate) fn check_count_up_to(
+    parameter: &'static str,
+    value: usize,
+    max: u64,
+) -> Result<(), CandidateError> {
+    if value >= 1 && value as u64 <= max {
+        Ok(())
+    } else {
+        Err(CandidateError::InvalidParameter {
+            parameter,
+            value: value as f64,
+            expected: ValidRange::CountUpTo(max),
         })
     }
 }

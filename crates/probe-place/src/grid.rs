@@ -1,7 +1,7 @@
 //! Regular probe grids, the baseline every placement is compared with, and the fair baseline:
 //! the same grid with DDGI-style probe classification and relocation.
 
-use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
+use crate::candidate_error::{CandidateError, ValidRange, check_count_up_to, check_param};
 use crate::probes::{ProbeSet, json_f32};
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
@@ -144,7 +144,7 @@ pub struct ClassifyParams {
     /// Whether to move probes before classifying them (the `grid-relocated` method). Default
     /// `true`; `false` only switches probes off.
     pub relocate: bool,
-    /// Rays per probe and per relocation step. Default 64.
+    /// Rays per probe and per relocation step. Default 64; at most 65,536.
     pub ray_count: usize,
     /// A probe is inside geometry when more than this share of its rays hit back faces.
     /// Default 0.25 (RTXGI's `probeBackfaceThreshold`).
@@ -152,7 +152,7 @@ pub struct ClassifyParams {
     /// The distance a probe should keep from the nearest front face, as a fraction of the
     /// smallest non-zero cell size. Default 0.2.
     pub min_frontface_fraction: f32,
-    /// Relocation steps (RTXGI runs one per frame). Default 8.
+    /// Relocation steps (RTXGI runs one per frame). Default 8; at most 1000.
     pub iterations: usize,
 }
 
@@ -170,7 +170,7 @@ impl Default for ClassifyParams {
 
 impl ClassifyParams {
     fn check(&self) -> Result<(), CandidateError> {
-        check_count("ray_count", self.ray_count)?;
+        check_count_up_to("ray_count", self.ray_count, 1 << 16)?;
         check_param(
             "backface_threshold",
             self.backface_threshold,
@@ -182,7 +182,7 @@ impl ClassifyParams {
             ValidRange::NonNegative,
         )?;
         if self.relocate {
-            check_count("iterations", self.iterations)?;
+            check_count_up_to("iterations", self.iterations, 1000)?;
         }
         Ok(())
     }

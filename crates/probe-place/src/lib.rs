@@ -82,7 +82,8 @@ pub use grid::{
     MAX_GRID_PROBES, MAX_RELOCATION_FRACTION, RegularGrid, classify_grid, inside_geometry,
 };
 pub use medial::{
-    MedialBall, MedialCandidates, MedialParams, SurfacePoint, medial_candidates, sample_surfaces,
+    MAX_SURFACE_SAMPLES, MedialBall, MedialCandidates, MedialParams, SurfacePoint,
+    medial_candidates, sample_surfaces,
 };
 pub use probes::{PROBE_SET_FORMAT, ProbeSet, ProbeSetError};
 pub use sdf::{SdfCandidates, SdfParams, sdf_candidates};

@@ -2,7 +2,9 @@
 //! weighted surface samples, the shrinking-ball algorithm (Ma et al. 2012, as in masbcpp)
 //! with its denoising, and clustering of the medial balls.
 
-use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
+use crate::candidate_error::{
+    CandidateError, ValidRange, check_count, check_count_up_to, check_param,
+};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
 use crate::probes::{ProbeSet, json_f32};
 use crate::sdf::sees;
@@ -14,6 +16,9 @@ use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde_json::{Map, Value};
 use std::num::NonZeroUsize;
+
+/// The most surface samples [`medial_candidates`] takes (`2^24`, about 16.8 million).
+pub const MAX_SURFACE_SAMPLES: u64 = 1 << 24;
 
 /// A point on a scene surface, drawn with probability proportional to area.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,7 +83,7 @@ pub struct MedialBall {
 /// the shrinking-ball constants are masbcpp's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MedialParams {
-    /// Area-weighted surface samples. Default 100,000.
+    /// Area-weighted surface samples. Default 100,000; at most [`MAX_SURFACE_SAMPLES`].
     pub sample_count: usize,
     /// Seed of the surface sampling.
     pub seed: u64,
@@ -89,7 +94,7 @@ pub struct MedialParams {
     /// Stop shrinking when the radius changes by less than this, as a fraction of
     /// `initial_radius`. Default 1e-5 (masbcpp's `delta_convergance` for unit-scale data).
     pub convergence: f32,
-    /// Shrinking steps at most (masbcpp's `iteration_limit`). Default 30.
+    /// Shrinking steps at most (masbcpp's `iteration_limit`). Default 30; at most 1000.
     pub iteration_limit: usize,
     /// Denoising, degrees (masbcpp's `denoise_preserve`): after the first step, stop at the
     /// previous ball when the angle at the new centre between the sample and its nearest
@@ -148,10 +153,10 @@ impl MedialParams {
                 voxel_size: self.voxel_size,
             });
         }
-        check_count("sample_count", self.sample_count)?;
+        check_count_up_to("sample_count", self.sample_count, MAX_SURFACE_SAMPLES)?;
         check_param("initial_radius", self.initial_radius, ValidRange::Positive)?;
         check_param("convergence", self.convergence, ValidRange::Positive)?;
-        check_count("iteration_limit", self.iteration_limit)?;
+        check_count_up_to("iteration_limit", self.iteration_limit, 1000)?;
         check_param(
             "denoise_preserve_degrees",
             self.denoise_preserve_degrees,

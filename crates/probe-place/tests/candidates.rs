@@ -374,6 +374,10 @@ fn bad_parameters_and_empty_scenes_are_refused() {
             ..medial.clone()
         },
         MedialParams {
+            sample_count: 1 << 30,
+            ..medial.clone()
+        },
+        MedialParams {
             initial_radius: 0.0,
             ..medial.clone()
         },

@@ -125,6 +125,10 @@ fn bad_classify_params_are_refused() {
             ..Default::default()
         },
         ClassifyParams {
+            ray_count: 1 << 20,
+            ..Default::default()
+        },
+        ClassifyParams {
             backface_threshold: f32::NAN,
             ..Default::default()
         },
