@@ -6,6 +6,12 @@ pub enum CliError {
     /// The scene could not be loaded.
     #[error(transparent)]
     Scene(#[from] probe_scene::LoadError),
+    /// The probe positions could not be read.
+    #[error(transparent)]
+    Probes(#[from] probe_place::ProbeSetError),
+    /// Indexing failed.
+    #[error("indexing: {0}")]
+    Index(#[from] probe_index::IndexError),
 }
 
 /// The error and its chain of causes on one line.

@@ -7,6 +7,7 @@
 mod cli_error;
 mod commands;
 mod output;
+mod progress;
 mod spec;
 
 use clap::{Parser, Subcommand};
@@ -27,12 +28,15 @@ struct Cli {
 enum Command {
     /// Summarise a scene: triangles, bounds, materials, lights, cameras and load warnings.
     SceneInfo(commands::scene_info::Args),
+    /// Build the probe indexes: Delaunay, edge-cast probes, Voronoi neighbours, octree.
+    Index(commands::index::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::SceneInfo(args) => commands::scene_info::run(args),
+        Command::Index(args) => commands::index::run(args),
     };
     match result {
         Ok(report) => {

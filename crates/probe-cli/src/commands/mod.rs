@@ -1,3 +1,4 @@
 //! One module per `probes` subcommand.
 
+pub mod index;
 pub mod scene_info;
