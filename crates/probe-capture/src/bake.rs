@@ -386,7 +386,11 @@ fn geometry_pass(
                         ..RowStats::default()
                     };
                     for ix in 0..n {
-                        let ray = Ray::new(origin, directions[iy * n + ix]);
+                        // Texel directions are unit vectors already.
+                        let ray = Ray {
+                            origin,
+                            direction: directions[iy * n + ix],
+                        };
                         let texel = trace_texel_geometry(scene, &ray);
                         normal_row[ix + 1] = texel.normal;
                         distance_row[ix + 1] = texel.distance;
@@ -773,7 +777,10 @@ fn radiance_pass(
                         let mut sum = Vec3::ZERO;
                         for k in 0..count {
                             let octa = texel_sample_point(n as f32, ix, iy, k, count, &mut rng);
-                            let ray = Ray::new(origin, probe_octa::decode(octa));
+                            let ray = Ray {
+                                origin,
+                                direction: probe_octa::decode(octa),
+                            };
                             sum += shader.trace(&ray, &mut rng).1;
                         }
                         row[ix as usize + 1] = sum / count as f32;

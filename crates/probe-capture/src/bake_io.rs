@@ -860,3 +860,39 @@ fn take_channels<const K: usize>(
     let count = size.0 * size.1;
     Ok((0..count).map(move |i| std::array::from_fn(|k| channels[k][i])))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::Rng;
+
+    /// Positions, stats and settings travel as JSON numbers: serde_json must give back the
+    /// same f32 bits for any finite value.
+    #[test]
+    fn json_round_trips_f32_bits() {
+        let mut rng = Rng::for_key(99, &[]);
+        let mut values = vec![
+            0.0f32,
+            -0.0,
+            f32::MIN_POSITIVE,
+            f32::MAX,
+            f32::MIN,
+            1e-45,
+            MISS_DISTANCE,
+        ];
+        while values.len() < 300_000 {
+            let v = f32::from_bits(rng.next_u32());
+            if v.is_finite() {
+                values.push(v);
+            }
+        }
+        for chunk in values.chunks(3) {
+            let triple: [f32; 3] = std::array::from_fn(|i| chunk[i % chunk.len()]);
+            let text = serde_json::to_string(&triple).unwrap();
+            let back: [f32; 3] = serde_json::from_str(&text).unwrap();
+            for (a, b) in triple.iter().zip(&back) {
+                assert_eq!(a.to_bits(), b.to_bits(), "{a:e} → {text}");
+            }
+        }
+    }
+}
