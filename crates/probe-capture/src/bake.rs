@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Vec2, Vec3};
 use probe_octa::{
-    FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, distance_moments, irradiance_map,
+    FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, Texel, irradiance_map, lobe_mean,
 };
 use probe_scene::{Ray, Scene};
 use rayon::prelude::*;
@@ -56,6 +56,12 @@ pub struct BakeSettings {
     pub moments_max_distance: Option<f32>,
     /// Interior resolution of the irradiance maps (DDGI: 6). 1 to 256. Default 6.
     pub irradiance_resolution: u32,
+    /// The moment and irradiance filters read the full-resolution maps reduced to at most
+    /// this resolution by exact solid-angle-weighted 2×2 averaging (of `(r, r²)` for the
+    /// moments, so the variance inside a reduced texel is kept). The filters cost
+    /// `source texels × output texels`, so this bounds their time at high resolutions while
+    /// staying far finer than their lobes. A power of two from 1 to 1024. Default 128.
+    pub filter_source_resolution: u32,
 }
 
 impl Default for BakeSettings {
@@ -71,6 +77,7 @@ impl Default for BakeSettings {
             moments_lobe_power: 50.0,
             moments_max_distance: None,
             irradiance_resolution: probe_octa::DDGI_IRRADIANCE_RESOLUTION,
+            filter_source_resolution: 128,
         }
     }
 }
@@ -197,6 +204,14 @@ impl BakeSettings {
             if value == 0 || value > 256 {
                 return Err(invalid(parameter, value, "must be from 1 to 256"));
             }
+        }
+        let f = self.filter_source_resolution;
+        if f == 0 || f > MAX_BAKE_RESOLUTION || !f.is_power_of_two() {
+            return Err(invalid(
+                "filter_source_resolution",
+                f,
+                "must be a power of two from 1 to 1024",
+            ));
         }
         if !(self.moments_lobe_power.is_finite() && self.moments_lobe_power >= 0.0) {
             return Err(invalid(
@@ -462,10 +477,14 @@ fn geometry_pass(
 ///   [`FineRead::Bilinear`], so it bounds both bilinear and nearest readers): per probe, its
 ///   levels one after another, level `k` being `(N/2^k)²` texels `(min, max)` without border;
 /// - **moments**: `(E[r], E[r²])` of the distance clamped to
-///   [`ProbeBake::moments_max_distance`], lobe-filtered ([`distance_moments`]) at
-///   [`BakeSettings::moments_resolution`] `M`, padded `(M+2)²` per probe;
+///   [`ProbeBake::moments_max_distance`], lobe-filtered with
+///   [`BakeSettings::moments_lobe_power`] (probe-octa's [`lobe_mean`] of `(r, r²)`, which is
+///   [`probe_octa::distance_moments`]) at [`BakeSettings::moments_resolution`] `M`, padded
+///   `(M+2)²` per probe;
 /// - **irradiance**: cosine-convolved radiance ([`irradiance_map`]) at
 ///   [`BakeSettings::irradiance_resolution`] `K`, padded `(K+2)²` per probe;
+///
+/// (both filters read the maps reduced to [`BakeSettings::filter_source_resolution`]);
 /// - **sh**: L2 spherical harmonics of the radiance ([`ShL2Rgb::project`]; call
 ///   [`ShL2Rgb::irradiance`] for irradiance), one per probe;
 /// - **stats**: [`ProbeStats`] per probe.
@@ -824,9 +843,15 @@ fn derived_maps(
     for level in 0..pyramid.level_count() {
         levels.extend_from_slice(pyramid.level(level).unwrap_or(&[]));
     }
-    let clamped = distance.map(|r| r.min(moments_max_distance));
-    let moments = distance_moments(
-        &clamped,
+    let moment_source = reduce(
+        &distance.map(|r| {
+            let r = r.min(moments_max_distance);
+            Vec2::new(r, r * r)
+        }),
+        settings.filter_source_resolution,
+    );
+    let moments = lobe_mean(
+        &moment_source,
         settings.moments_resolution,
         settings.moments_lobe_power,
     )
@@ -837,13 +862,15 @@ fn derived_maps(
             "must be from 1 to 256",
         )
     })?;
-    let irradiance = irradiance_map(&radiance, settings.irradiance_resolution).map_err(|_| {
-        invalid(
-            "irradiance_resolution",
-            settings.irradiance_resolution,
-            "must be from 1 to 256",
-        )
-    })?;
+    let irradiance_source = reduce(&radiance, settings.filter_source_resolution);
+    let irradiance =
+        irradiance_map(&irradiance_source, settings.irradiance_resolution).map_err(|_| {
+            invalid(
+                "irradiance_resolution",
+                settings.irradiance_resolution,
+                "must be from 1 to 256",
+            )
+        })?;
     Ok(DerivedMaps {
         pyramid_levels: pyramid.level_count() as u32,
         pyramid: levels,
@@ -851,4 +878,72 @@ fn derived_maps(
         irradiance,
         sh: ShL2Rgb::project(&radiance),
     })
+}
+
+/// Halves a power-of-two map until its resolution is at most `limit`: each coarse texel is
+/// the solid-angle-weighted mean of the 2×2 fine texels it covers (exactly its own square, so
+/// the integral of the map over any coarse texel is kept). Returns the map itself when it is
+/// already small enough.
+fn reduce<T: Texel>(map: &OctaMap<T>, limit: u32) -> OctaMap<T> {
+    let mut current = map.clone();
+    while current.resolution() > limit.max(1) && current.resolution() % 2 == 0 {
+        let fine = current.layout();
+        let n = fine.resolution();
+        let half = n / 2;
+        let angles = fine.texel_solid_angles();
+        let mut interior = Vec::with_capacity((half * half) as usize);
+        for y in 0..half {
+            for x in 0..half {
+                let mut sum = T::zero();
+                let mut weight = 0.0f32;
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (ix, iy) = (2 * x + dx, 2 * y + dy);
+                    let w = angles[(iy * n + ix) as usize];
+                    sum = sum.add_scaled(current.texels()[fine.interior_index(ix, iy)], w);
+                    weight += w;
+                }
+                interior.push(T::zero().add_scaled(sum, 1.0 / weight));
+            }
+        }
+        match OctaMap::from_interior(half, &interior) {
+            Ok(coarse) => current = coarse,
+            Err(_) => break,
+        }
+    }
+    current
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reduction_keeps_integrals_over_coarse_texels() {
+        let map = OctaMap::from_fn(32, |d: Vec3| Vec2::new(1.0 + d.x * d.y, 2.0 + d.z)).unwrap();
+        let coarse = reduce(&map, 8);
+        assert_eq!(coarse.resolution(), 8);
+        assert_eq!(reduce(&map, 64), map);
+        let integral = |m: &OctaMap<Vec2>| {
+            let layout = m.layout();
+            let angles = layout.texel_solid_angles();
+            let n = layout.resolution();
+            let mut sum = glam::DVec2::ZERO;
+            for iy in 0..n {
+                for ix in 0..n {
+                    let v = m.get(ix, iy).unwrap();
+                    sum += v.as_dvec2() * f64::from(angles[(iy * n + ix) as usize]);
+                }
+            }
+            sum
+        };
+        let (a, b) = (integral(&map), integral(&coarse));
+        assert!(
+            (a - b).abs().max_element() < 1e-4 * a.abs().max_element(),
+            "{a} vs {b}"
+        );
+        // The border is padded.
+        let mut repadded = coarse.clone();
+        repadded.pad();
+        assert_eq!(repadded, coarse);
+    }
 }

@@ -222,6 +222,7 @@ struct ManifestSettings {
     moments_lobe_power: f32,
     moments_max_distance: Option<f32>,
     irradiance_resolution: u32,
+    filter_source_resolution: u32,
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -494,6 +495,7 @@ impl ProbeBake {
                 moments_lobe_power: s.moments_lobe_power,
                 moments_max_distance: s.moments_max_distance,
                 irradiance_resolution: s.irradiance_resolution,
+                filter_source_resolution: s.filter_source_resolution,
             },
             environment: ManifestEnvironment::from(&self.environment),
             moments_max_distance: self.moments_max_distance,
@@ -737,6 +739,7 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
         moments_lobe_power: s.moments_lobe_power,
         moments_max_distance: s.moments_max_distance,
         irradiance_resolution: s.irradiance_resolution,
+        filter_source_resolution: s.filter_source_resolution,
     };
     settings.validate().map_err(|e| e.to_string())?;
     if m.resolution != s.resolution || m.resolution > MAX_BAKE_RESOLUTION {

@@ -125,8 +125,46 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
     }
     assert!(probes.radiance_map(3).is_none());
     assert!(probes.pyramid_level(3, 0).is_none());
+
     // The environment used was black (the Cornell box has an emitter).
     assert_eq!(*probes.environment(), Environment::BLACK);
+}
+
+#[test]
+fn reduced_filter_sources_change_the_filtered_maps_little() {
+    let scene = cornell();
+    let settings = BakeSettings {
+        resolution: 64,
+        samples_per_texel: 1,
+        moments_resolution: 14,
+        irradiance_resolution: 6,
+        filter_source_resolution: 64,
+        ..small_settings()
+    };
+    let positions = &cornell_probes()[..1];
+    let full = bake(&scene, positions, &settings, &no_progress).unwrap();
+    let reduced = bake(
+        &scene,
+        positions,
+        &BakeSettings {
+            filter_source_resolution: 32,
+            ..settings
+        },
+        &no_progress,
+    )
+    .unwrap();
+    assert_eq!(reduced.radiance(), full.radiance());
+    assert_ne!(reduced.moments(), full.moments());
+    let mut worst = 0.0f32;
+    for (a, b) in reduced.moments().iter().zip(full.moments()) {
+        worst = worst.max((a.x - b.x).abs() / b.x);
+    }
+    assert!(worst < 0.05, "moments: {worst}");
+    let mut worst = 0.0f32;
+    for (a, b) in reduced.irradiance().iter().zip(full.irradiance()) {
+        worst = worst.max((*a - *b).abs().max_element() / b.max_element());
+    }
+    assert!(worst < 0.02, "irradiance: {worst}");
 }
 
 #[test]
@@ -214,6 +252,13 @@ fn invalid_settings_name_the_parameter() {
             ..small_settings()
         }),
         "irradiance_resolution"
+    );
+    assert_eq!(
+        parameter(BakeSettings {
+            filter_source_resolution: 48,
+            ..small_settings()
+        }),
+        "filter_source_resolution"
     );
     assert_eq!(
         parameter(BakeSettings {
