@@ -338,11 +338,7 @@ impl ProbeGeometry {
 }
 
 /// Copies probe `probe`'s padded slice of a probe-major array into a map.
-fn probe_map<T: probe_octa::Texel>(
-    all: &[T],
-    layout: OctaLayout,
-    probe: usize,
-) -> Option<OctaMap<T>> {
+fn probe_map<T: Texel>(all: &[T], layout: OctaLayout, probe: usize) -> Option<OctaMap<T>> {
     let len = layout.padded_len();
     let texels = all.get(probe * len..(probe + 1) * len)?;
     OctaMap::from_padded(layout.resolution(), texels.to_vec()).ok()
@@ -886,7 +882,7 @@ fn derived_maps(
 /// already small enough.
 fn reduce<T: Texel>(map: &OctaMap<T>, limit: u32) -> OctaMap<T> {
     let mut current = map.clone();
-    while current.resolution() > limit.max(1) && current.resolution() % 2 == 0 {
+    while current.resolution() > limit.max(1) && current.resolution().is_multiple_of(2) {
         let fine = current.layout();
         let n = fine.resolution();
         let half = n / 2;
