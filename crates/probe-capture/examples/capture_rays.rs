@@ -137,7 +137,9 @@ fn main() {
                 chunk
                     .iter()
                     .filter_map(|r| scene.closest_hit(r, f32::INFINITY))
-                    .map(|h| h.t)
+                    // Read a hit attribute too, as probe-scene's bench does, so that the
+                    // attribute computation is not optimised away.
+                    .map(|h| h.t + h.shading_normal.x)
                     .sum::<f32>()
             })
             .sum::<f32>()

@@ -249,30 +249,37 @@ pub struct ProbeStats {
     pub min_distance: f32,
 }
 
-/// What one probe's texel-centre rays saw: distances and normals (padded, one probe) and the
-/// probe's statistics.
+/// What one texel-centre ray saw.
 struct TexelGeometry {
     distance: f32,
     normal: Vec3,
     back_face: bool,
 }
 
-/// The hit normal stored in a probe: the shading normal, flipped towards the probe on the back
-/// of a double-sided surface; on the back of a single-sided surface it points away from the
-/// probe (`normal · direction > 0`), which marks a back-face hit.
+/// Traces one texel-centre ray. The stored normal is the shading normal on the side the ray
+/// hit: flipped towards the probe on the back of a double-sided surface, and left pointing
+/// away from the probe on the back of a single-sided one, which marks a back-face hit. Where
+/// the interpolated normal disagrees with the plane about the side, the plane normal is used,
+/// so `normal · direction > 0` holds exactly for back-face hits (up to exactly grazing ones).
 fn trace_texel_geometry(scene: &Scene, ray: &Ray) -> TexelGeometry {
     match scene.closest_hit(ray, f32::INFINITY) {
         Some(hit) => {
             let double_sided = scene.materials()[hit.material as usize].double_sided;
-            let flip = !hit.front_face && double_sided;
+            let back_face = !hit.front_face && !double_sided;
+            let sign = if !hit.front_face && double_sided {
+                -1.0
+            } else {
+                1.0
+            };
+            let geometric = hit.geometric_normal * sign;
+            let mut normal = hit.shading_normal * sign;
+            if (normal.dot(ray.direction) > 0.0) != (geometric.dot(ray.direction) > 0.0) {
+                normal = geometric;
+            }
             TexelGeometry {
                 distance: hit.t,
-                normal: if flip {
-                    -hit.shading_normal
-                } else {
-                    hit.shading_normal
-                },
-                back_face: !hit.front_face && !double_sided,
+                normal,
+                back_face,
             }
         }
         None => TexelGeometry {
@@ -292,7 +299,10 @@ struct RowStats {
 }
 
 /// The geometry of a set of probes: per probe the radial distance and hit normal of every
-/// texel-centre ray (padded maps, probe-major) and its [`ProbeStats`]. This is the first pass
+/// texel-centre ray (padded maps, probe-major, as in [`ProbeBake`]) and its [`ProbeStats`].
+/// Normals are world-space shading normals on the side the ray hit, except on back faces of
+/// single-sided surfaces, where they point away from the probe (`normal · direction > 0`):
+/// that marks a probe seeing the inside of a solid. This is the first pass
 /// of [`bake`]; placement and visibility work that needs no radiance can call
 /// [`capture_geometry`] alone.
 #[derive(Clone, Debug, PartialEq)]
@@ -465,8 +475,9 @@ fn geometry_pass(
 /// - **radiance**: linear HDR RGB, the mean of [`BakeSettings::samples_per_texel`] jittered
 ///   samples over the texel's octahedral square, each the [`Shader`]'s outgoing radiance of
 ///   the hit (emission + direct light + bounces) or the sky for a miss;
-/// - **normal**: world-space hit normal of the texel-centre ray (see [`ProbeGeometry`]; zero
-///   for misses; pointing away from the probe on back faces of single-sided surfaces);
+/// - **normal**: world-space hit normal of the texel-centre ray (zero for misses; pointing
+///   away from the probe only on back faces of single-sided surfaces, see
+///   [`ProbeGeometry`]);
 /// - **distance**: radial distance in metres of the texel-centre ray's hit
 ///   ([`MISS_DISTANCE`] for misses);
 /// - **pyramid**: min/max radial-distance pyramid ([`MinMaxPyramid`] with

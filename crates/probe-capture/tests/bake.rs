@@ -181,6 +181,19 @@ fn back_face_share_finds_probes_inside_boxes() {
     assert_eq!(stats[2].back_face_share, 0.0, "{:?}", stats[2]);
     assert_eq!(stats[2].miss_share, 0.0);
     assert!(stats[2].mean_distance > 1.0);
+    // The stored normals mark back faces: they point away from the probe exactly there.
+    let layout = probe_octa::OctaLayout::new(32).unwrap();
+    for (probe, stats) in stats.iter().enumerate() {
+        let mut away = 0;
+        for iy in 0..32 {
+            for ix in 0..32 {
+                let normal =
+                    geometry.normals()[probe * layout.padded_len() + layout.interior_index(ix, iy)];
+                away += usize::from(normal.dot(layout.texel_direction(ix, iy)) > 0.0);
+            }
+        }
+        assert_eq!(away as f32 / 1024.0, stats.back_face_share, "probe {probe}");
+    }
 }
 
 #[test]
@@ -379,6 +392,16 @@ fn save_and_load_round_trip_exactly() {
     assert_eq!(loaded, probes);
     let loaded = ProbeBake::load(&path, None).unwrap();
     assert_eq!(loaded, probes);
+    // Saving is deterministic too: a second save gives the same files, byte for byte.
+    let again = tempfile::tempdir().unwrap();
+    loaded.save(again.path().join("bake")).unwrap();
+    for file in [MANIFEST_FILE, "radiance.exr", "geometry.exr", "pyramid.exr"] {
+        assert_eq!(
+            std::fs::read(path.join(file)).unwrap(),
+            std::fs::read(again.path().join("bake").join(file)).unwrap(),
+            "{file}"
+        );
+    }
     // No temporary files are left beside the bake.
     let entries: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
