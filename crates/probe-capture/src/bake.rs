@@ -56,11 +56,11 @@ pub struct BakeSettings {
     pub moments_max_distance: Option<f32>,
     /// Interior resolution of the irradiance maps (DDGI: 6). 1 to 256. Default 6.
     pub irradiance_resolution: u32,
-    /// The moment and irradiance filters read the full-resolution maps reduced to at most
-    /// this resolution by exact solid-angle-weighted 2×2 averaging (of `(r, r²)` for the
-    /// moments, so the variance inside a reduced texel is kept). The filters cost
-    /// `source texels × output texels`, so this bounds their time at high resolutions while
-    /// staying far finer than their lobes. A power of two from 1 to 1024. Default 128.
+    /// The moment and irradiance filters and the SH projection read the full-resolution maps
+    /// reduced to at most this resolution by exact solid-angle-weighted 2×2 averaging (of
+    /// `(r, r²)` for the moments, so the variance inside a reduced texel is kept). The filters
+    /// cost `source texels × output texels`, so this bounds their time at high resolutions
+    /// while staying far finer than their lobes. A power of two from 1 to 1024. Default 128.
     pub filter_source_resolution: u32,
 }
 
@@ -713,11 +713,13 @@ pub fn bake(
         .moments_max_distance
         .unwrap_or_else(|| scene.bounds().size().length().max(1.0));
     let len = layout.padded_len();
+    let reducer = Reducer::new(layout.resolution(), settings.filter_source_resolution);
     let derived: Vec<DerivedMaps> = (0..probes)
         .into_par_iter()
         .map(|p| {
             let maps = derived_maps(
                 layout,
+                &reducer,
                 &radiance[p * len..(p + 1) * len],
                 &geometry.distances[p * len..(p + 1) * len],
                 settings,
@@ -828,6 +830,7 @@ struct DerivedMaps {
 
 fn derived_maps(
     layout: OctaLayout,
+    reducer: &Reducer,
     radiance: &[Vec3],
     distances: &[f32],
     settings: &BakeSettings,
@@ -850,13 +853,10 @@ fn derived_maps(
     for level in 0..pyramid.level_count() {
         levels.extend_from_slice(pyramid.level(level).unwrap_or(&[]));
     }
-    let moment_source = reduce(
-        &distance.map(|r| {
-            let r = r.min(moments_max_distance);
-            Vec2::new(r, r * r)
-        }),
-        settings.filter_source_resolution,
-    );
+    let moment_source = reducer.reduce(&distance.map(|r| {
+        let r = r.min(moments_max_distance);
+        Vec2::new(r, r * r)
+    }));
     let moments = lobe_mean(
         &moment_source,
         settings.moments_resolution,
@@ -869,7 +869,7 @@ fn derived_maps(
             "must be from 1 to 256",
         )
     })?;
-    let irradiance_source = reduce(&radiance, settings.filter_source_resolution);
+    let irradiance_source = reducer.reduce(&radiance);
     let irradiance =
         irradiance_map(&irradiance_source, settings.irradiance_resolution).map_err(|_| {
             invalid(
@@ -883,41 +883,63 @@ fn derived_maps(
         pyramid: levels,
         moments,
         irradiance,
-        sh: ShL2Rgb::project(&radiance),
+        sh: ShL2Rgb::project(&irradiance_source),
     })
 }
 
-/// Halves a power-of-two map until its resolution is at most `limit`: each coarse texel is
-/// the solid-angle-weighted mean of the 2×2 fine texels it covers (exactly its own square, so
-/// the integral of the map over any coarse texel is kept). Returns the map itself when it is
-/// already small enough.
-fn reduce<T: Texel>(map: &OctaMap<T>, limit: u32) -> OctaMap<T> {
-    let mut current = map.clone();
-    while current.resolution() > limit.max(1) && current.resolution().is_multiple_of(2) {
-        let fine = current.layout();
-        let n = fine.resolution();
-        let half = n / 2;
-        let angles = fine.texel_solid_angles();
-        let mut interior = Vec::with_capacity((half * half) as usize);
-        for y in 0..half {
-            for x in 0..half {
-                let mut sum = T::zero();
-                let mut weight = 0.0f32;
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let (ix, iy) = (2 * x + dx, 2 * y + dy);
-                    let w = angles[(iy * n + ix) as usize];
-                    sum = sum.add_scaled(current.texels()[fine.interior_index(ix, iy)], w);
-                    weight += w;
+/// Reduces power-of-two maps of one resolution to at most a limit, halving them level by
+/// level: each coarse texel is the solid-angle-weighted mean of the 2×2 fine texels it covers
+/// (exactly its own square, so the integral of the map over any coarse texel is kept). The
+/// solid angles of every level are computed once and shared by all maps.
+struct Reducer {
+    /// Per halving step, the fine level's layout and its texel solid angles.
+    steps: Vec<(OctaLayout, Vec<f32>)>,
+}
+
+impl Reducer {
+    fn new(resolution: u32, limit: u32) -> Reducer {
+        let mut steps = Vec::new();
+        let mut n = resolution;
+        while n > limit.max(1) && n.is_multiple_of(2) {
+            if let Ok(layout) = OctaLayout::new(n) {
+                steps.push((layout, layout.texel_solid_angles()));
+            }
+            n /= 2;
+        }
+        Reducer { steps }
+    }
+
+    /// The reduced map (the map itself when no step is needed). Maps of another resolution
+    /// than the reducer's are returned unchanged.
+    fn reduce<T: Texel>(&self, map: &OctaMap<T>) -> OctaMap<T> {
+        let mut current = map.clone();
+        for (fine, angles) in &self.steps {
+            if current.layout() != *fine {
+                break;
+            }
+            let n = fine.resolution();
+            let half = n / 2;
+            let mut interior = Vec::with_capacity((half * half) as usize);
+            for y in 0..half {
+                for x in 0..half {
+                    let mut sum = T::zero();
+                    let mut weight = 0.0f32;
+                    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                        let (ix, iy) = (2 * x + dx, 2 * y + dy);
+                        let w = angles[(iy * n + ix) as usize];
+                        sum = sum.add_scaled(current.texels()[fine.interior_index(ix, iy)], w);
+                        weight += w;
+                    }
+                    interior.push(T::zero().add_scaled(sum, 1.0 / weight));
                 }
-                interior.push(T::zero().add_scaled(sum, 1.0 / weight));
+            }
+            match OctaMap::from_interior(half, &interior) {
+                Ok(coarse) => current = coarse,
+                Err(_) => break,
             }
         }
-        match OctaMap::from_interior(half, &interior) {
-            Ok(coarse) => current = coarse,
-            Err(_) => break,
-        }
+        current
     }
-    current
 }
 
 #[cfg(test)]
@@ -927,9 +949,10 @@ mod tests {
     #[test]
     fn reduction_keeps_integrals_over_coarse_texels() {
         let map = OctaMap::from_fn(32, |d: Vec3| Vec2::new(1.0 + d.x * d.y, 2.0 + d.z)).unwrap();
-        let coarse = reduce(&map, 8);
+        let coarse = Reducer::new(32, 8).reduce(&map);
         assert_eq!(coarse.resolution(), 8);
-        assert_eq!(reduce(&map, 64), map);
+        assert_eq!(Reducer::new(32, 64).reduce(&map), map);
+        assert_eq!(Reducer::new(32, 32).reduce(&map), map);
         let integral = |m: &OctaMap<Vec2>| {
             let layout = m.layout();
             let angles = layout.texel_solid_angles();

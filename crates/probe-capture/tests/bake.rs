@@ -165,6 +165,12 @@ fn reduced_filter_sources_change_the_filtered_maps_little() {
         worst = worst.max((*a - *b).abs().max_element() / b.max_element());
     }
     assert!(worst < 0.02, "irradiance: {worst}");
+    // L2 SH barely notice the reduction.
+    let (a, b) = (reduced.sh()[0], full.sh()[0]);
+    let scale = b.coefficients[0].max_element();
+    for (x, y) in a.coefficients.iter().zip(&b.coefficients) {
+        assert!((*x - *y).abs().max_element() < 0.01 * scale, "{x} vs {y}");
+    }
 }
 
 #[test]
