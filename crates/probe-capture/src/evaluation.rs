@@ -272,15 +272,20 @@ pub fn reflection_rays(
 }
 
 /// The reference for the probe tracer: traces each ray against the BVH and shades the true
-/// hit with `shader` (the sky for misses), in parallel. Ray `i` draws its random numbers from
-/// a generator keyed by `(seed, i)`. `progress` receives `(rays done, rays)` in blocks.
+/// hit with `shader` (the sky for misses), in parallel. The radiance is the mean of
+/// `shading_samples` independent estimates of [`Shader::outgoing_radiance`] at the one hit
+/// (at least 1; more lower the noise of the light sampling and bounces, e.g. for ray-by-ray
+/// comparisons). Ray `i` draws its random numbers from a generator keyed by `(seed, i)`.
+/// `progress` receives `(rays done, rays)` in blocks.
 pub fn trace_reference(
     shader: &Shader<'_>,
     rays: &[EvaluationRay],
+    shading_samples: u32,
     seed: u64,
     progress: Progress<'_>,
 ) -> Vec<ReferenceSample> {
     const BLOCK: usize = 1024;
+    let shading_samples = shading_samples.max(1);
     let done = AtomicUsize::new(0);
     let total = rays.len();
     rays.par_chunks(BLOCK)
@@ -292,8 +297,23 @@ pub fn trace_reference(
                 .map(|(i, ray)| {
                     let index = (block * BLOCK + i) as u64;
                     let mut rng = Rng::for_key(seed, &[TRACE_STREAM, index]);
-                    let (hit, radiance) = shader.trace(&ray.ray(), &mut rng);
-                    ReferenceSample { hit, radiance }
+                    let ray = ray.ray();
+                    match shader.scene().closest_hit(&ray, f32::INFINITY) {
+                        Some(hit) => {
+                            let mut sum = Vec3::ZERO;
+                            for _ in 0..shading_samples {
+                                sum += shader.outgoing_radiance(&hit, -ray.direction, &mut rng);
+                            }
+                            ReferenceSample {
+                                hit: Some(hit),
+                                radiance: sum / shading_samples as f32,
+                            }
+                        }
+                        None => ReferenceSample {
+                            hit: None,
+                            radiance: shader.background(ray.direction),
+                        },
+                    }
                 })
                 .collect();
             let d = done.fetch_add(chunk.len(), Ordering::Relaxed) + chunk.len();

@@ -107,6 +107,9 @@ pub struct RenderSettings {
     pub bounces: u32,
     /// Reflection rays of `Glossy1`. Default [`Reflection::Mirror`].
     pub reflection: Reflection,
+    /// Shading estimates averaged at each `Glossy1` secondary hit (see
+    /// [`crate::trace_reference`]). 1 to 65536. Default 1.
+    pub shading_samples: u32,
     /// Longest path of `Full`, in segments from the camera (1 = direct light only). 1 to
     /// 1024. Default 16.
     pub max_depth: u32,
@@ -124,6 +127,7 @@ impl RenderSettings {
             environment: None,
             bounces: 1,
             reflection: Reflection::Mirror,
+            shading_samples: 1,
             max_depth: 16,
         }
     }
@@ -146,6 +150,13 @@ impl RenderSettings {
             return invalid(
                 "samples_per_pixel",
                 self.samples_per_pixel,
+                "must be from 1 to 65536",
+            );
+        }
+        if self.shading_samples == 0 || self.shading_samples > 65_536 {
+            return invalid(
+                "shading_samples",
+                self.shading_samples,
                 "must be from 1 to 65536",
             );
         }
@@ -187,7 +198,13 @@ pub fn render(
                 settings.samples_per_pixel,
                 settings.seed,
             )?;
-            let samples = trace_reference(&shader, &rays, settings.seed, progress);
+            let samples = trace_reference(
+                &shader,
+                &rays,
+                settings.shading_samples,
+                settings.seed,
+                progress,
+            );
             let radiance: Vec<Vec3> = samples.iter().map(|s| s.radiance).collect();
             accumulate_rays(width, height, &rays, &radiance)
         }

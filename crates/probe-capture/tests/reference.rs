@@ -84,7 +84,7 @@ fn mirror_rays_reflect_about_the_normal() {
     // The reference along a mirror ray from the floor: it meets the wall at the distance the
     // geometry gives, and the radiance is the wall's.
     let shader = Shader::new(&scene, Environment::uniform_sky(Vec3::ONE), 0).unwrap();
-    let samples = trace_reference(&shader, &rays, 3, &no_progress);
+    let samples = trace_reference(&shader, &rays, 1, 3, &no_progress);
     assert_eq!(samples.len(), rays.len());
     for (ray, sample) in rays.iter().zip(&samples) {
         match sample.hit {
@@ -149,11 +149,12 @@ fn glossy_component_is_the_sum_over_the_reference_rays() {
     settings.samples_per_pixel = 2;
     settings.seed = 9;
     settings.reflection = Reflection::Ggx { roughness: 0.3 };
+    settings.shading_samples = 2;
     let image = render(&scene, &camera, &settings, &no_progress).unwrap();
     let gbuffer = render_gbuffer(&scene, &camera, 20, 16).unwrap();
     let rays = reflection_rays(&gbuffer, settings.reflection, 2, 9).unwrap();
     let shader = Shader::new(&scene, Environment::for_scene(&scene), 1).unwrap();
-    let radiance: Vec<Vec3> = trace_reference(&shader, &rays, 9, &no_progress)
+    let radiance: Vec<Vec3> = trace_reference(&shader, &rays, 2, 9, &no_progress)
         .iter()
         .map(|s| s.radiance)
         .collect();
@@ -230,4 +231,26 @@ fn direct_and_full_renders_of_the_cornell_box() {
         Err(RenderError::UnknownCamera { .. })
     ));
     assert_eq!(find_camera(&scene, "default").unwrap(), camera);
+}
+
+#[test]
+fn more_shading_samples_lower_the_reference_noise() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let gbuffer = render_gbuffer(&scene, &scene.default_camera(), 16, 16).unwrap();
+    let rays = reflection_rays(&gbuffer, Reflection::Mirror, 1, 0).unwrap();
+    let shader = Shader::new(&scene, Environment::BLACK, 1).unwrap();
+    let spread = |samples: u32| {
+        let a = trace_reference(&shader, &rays, samples, 1, &no_progress);
+        let b = trace_reference(&shader, &rays, samples, 2, &no_progress);
+        a.iter()
+            .zip(&b)
+            .map(|(x, y)| {
+                assert_eq!(x.hit, y.hit);
+                f64::from((x.radiance - y.radiance).length_squared())
+            })
+            .sum::<f64>()
+            / rays.len() as f64
+    };
+    let (one, sixteen) = (spread(1), spread(16));
+    assert!(sixteen * 4.0 < one, "{one} vs {sixteen}");
 }
