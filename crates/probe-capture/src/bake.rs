@@ -341,9 +341,19 @@ impl ProbeGeometry {
         &self.stats
     }
 
+    /// Layout of the maps.
+    pub fn layout(&self) -> OctaLayout {
+        self.layout
+    }
+
     /// One probe's distance map, or `None` past the last probe.
     pub fn distance_map(&self, probe: usize) -> Option<OctaMap<f32>> {
         probe_map(&self.distances, self.layout, probe)
+    }
+
+    /// One probe's normal map, or `None` past the last probe.
+    pub fn normal_map(&self, probe: usize) -> Option<OctaMap<Vec3>> {
+        probe_map(&self.normals, self.layout, probe)
     }
 }
 
