@@ -1,0 +1,397 @@
+//! The evaluation rays shared by the reference renderer and the probe tracer: a camera's
+//! G-buffer, secondary reflection rays from it, and the reference radiance along them.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::{Vec2, Vec3};
+use probe_scene::{Camera, Hit, Ray, Scene};
+use rayon::prelude::*;
+
+use crate::bake::Progress;
+use crate::image::Image;
+use crate::render::RenderError;
+use crate::rng::{Rng, orthonormal_basis};
+use crate::shading::Shader;
+
+/// Random-stream tags, so that the streams of different stages never coincide.
+pub(crate) const PIXEL_STREAM: u64 = 0x5049_5845_4c00_0001;
+const REFLECTION_STREAM: u64 = 0x5245_464c_4543_0002;
+const TRACE_STREAM: u64 = 0x5452_4143_4500_0003;
+
+/// What a camera's primary ray through a pixel centre hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GBufferSample {
+    /// The hit point, world space.
+    pub position: Vec3,
+    /// The plane normal, flipped to the camera's side.
+    pub geometric_normal: Vec3,
+    /// The shading normal on the camera's side (the plane normal where the interpolated one
+    /// faces away from the camera).
+    pub shading_normal: Vec3,
+    /// Unit direction from the hit back to the camera.
+    pub towards_camera: Vec3,
+    /// Distance from the camera, metres.
+    pub distance: f32,
+    /// Index into [`Scene::triangles`].
+    pub triangle: u32,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// Whether the camera sees the back face of a single-sided material (which the shading
+    /// model treats as black and which reflects nothing).
+    pub back_face: bool,
+}
+
+/// A camera's G-buffer: one primary ray through the centre of each pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GBuffer {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// The camera.
+    pub camera: Camera,
+    /// Per pixel (row-major from the top-left), the primary hit or `None` for the sky.
+    pub pixels: Vec<Option<GBufferSample>>,
+}
+
+/// How secondary rays leave the G-buffer's surfaces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reflection {
+    /// The mirror direction about the shading normal; weight 1.
+    Mirror,
+    /// GGX (Trowbridge–Reitz) reflection with perceptual `roughness` in `(0, 1]` (`α =
+    /// roughness²`), sampled from the distribution of visible normals (Heitz 2018). The
+    /// weight is Smith's masking `G1` of the sampled direction, the BRDF × cos / pdf of a
+    /// GGX lobe with Fresnel 1 under separable masking–shadowing.
+    Ggx {
+        /// Perceptual roughness in `(0, 1]`.
+        roughness: f32,
+    },
+}
+
+/// A secondary ray from a G-buffer pixel, as both the reference and the probe tracer trace it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EvaluationRay {
+    /// The pixel, `y · width + x`.
+    pub pixel: u32,
+    /// The start point, offset off the surface ([`Ray::from_surface`]).
+    pub origin: Vec3,
+    /// Unit direction.
+    pub direction: Vec3,
+    /// The ray's share of its pixel: the pixel's value is `Σ weight × radiance` over its
+    /// rays (the reflection weight divided by the rays per pixel).
+    pub weight: f32,
+}
+
+impl EvaluationRay {
+    /// The ray as probe-scene casts it.
+    pub fn ray(&self) -> Ray {
+        Ray {
+            origin: self.origin,
+            direction: self.direction,
+        }
+    }
+}
+
+/// The reference result of one [`EvaluationRay`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReferenceSample {
+    /// The true closest hit, or `None` when the ray leaves the scene.
+    pub hit: Option<Hit>,
+    /// The [`Shader`]'s outgoing radiance at the hit towards the ray's origin, or the sky.
+    pub radiance: Vec3,
+}
+
+fn check_size(width: u32, height: u32) -> Result<(), RenderError> {
+    for (parameter, value) in [("width", width), ("height", height)] {
+        if value == 0 || value > 16_384 {
+            return Err(RenderError::InvalidSetting {
+                parameter,
+                value: value.to_string(),
+                reason: "must be from 1 to 16384",
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Casts one primary ray through the centre of every pixel (in parallel) and records what
+/// it hit.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for a zero or larger than 16384 `width` or `height`.
+pub fn render_gbuffer(
+    scene: &Scene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+) -> Result<GBuffer, RenderError> {
+    check_size(width, height)?;
+    let pixels = (0..width * height)
+        .into_par_iter()
+        .with_min_len(64)
+        .map(|pixel| {
+            let ray = camera.ray(pixel % width, pixel / width, width, height, Vec2::ZERO);
+            let hit = scene.closest_hit(&ray, f32::INFINITY)?;
+            let material = &scene.materials()[hit.material as usize];
+            let towards_camera = -ray.direction;
+            let facing = hit.geometric_normal.dot(towards_camera) >= 0.0;
+            let sign = if facing { 1.0 } else { -1.0 };
+            let geometric_normal = hit.geometric_normal * sign;
+            let mut shading_normal = hit.shading_normal * sign;
+            if shading_normal.dot(towards_camera) <= 0.0 {
+                shading_normal = geometric_normal;
+            }
+            Some(GBufferSample {
+                position: hit.position,
+                geometric_normal,
+                shading_normal,
+                towards_camera,
+                distance: hit.t,
+                triangle: hit.triangle,
+                material: hit.material,
+                back_face: !facing && !material.double_sided,
+            })
+        })
+        .collect();
+    Ok(GBuffer {
+        width,
+        height,
+        camera: camera.clone(),
+        pixels,
+    })
+}
+
+/// Smith's masking for GGX with `α` at a direction whose cosine to the normal is `cos`.
+#[inline]
+fn smith_g1(alpha: f32, cos: f32) -> f32 {
+    let cos2 = (cos * cos).max(1e-12);
+    let tan2 = (1.0 - cos2).max(0.0) / cos2;
+    2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
+}
+
+/// A GGX visible normal (Heitz 2018, "Sampling the GGX Distribution of Visible Normals") in
+/// the local frame where the normal is `+z`, for the local view direction `view`.
+#[inline]
+fn sample_ggx_vndf(view: Vec3, alpha: f32, u: Vec2) -> Vec3 {
+    let vh = Vec3::new(alpha * view.x, alpha * view.y, view.z).normalize();
+    let lensq = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if lensq > 0.0 {
+        Vec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
+    } else {
+        Vec3::X
+    };
+    let t2 = vh.cross(t1);
+    let r = u.x.sqrt();
+    let phi = std::f32::consts::TAU * u.y;
+    let p1 = r * phi.cos();
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
+    let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+    Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
+}
+
+/// Secondary reflection rays: `rays_per_pixel` per G-buffer pixel that hit a front face (or a
+/// double-sided surface), mirror or GGX-sampled with a seeded generator per pixel. Rays whose
+/// direction falls below the surface are left out (they contribute nothing), so a pixel may
+/// have fewer rays; each ray's weight already includes `1 / rays_per_pixel`. The list is
+/// ordered by pixel.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for `rays_per_pixel` of 0 or a roughness outside
+/// `(0, 1]`.
+pub fn reflection_rays(
+    gbuffer: &GBuffer,
+    reflection: Reflection,
+    rays_per_pixel: u32,
+    seed: u64,
+) -> Result<Vec<EvaluationRay>, RenderError> {
+    if rays_per_pixel == 0 || rays_per_pixel > 65_536 {
+        return Err(RenderError::InvalidSetting {
+            parameter: "rays_per_pixel",
+            value: rays_per_pixel.to_string(),
+            reason: "must be from 1 to 65536",
+        });
+    }
+    if let Reflection::Ggx { roughness } = reflection
+        && !(roughness > 0.0 && roughness <= 1.0)
+    {
+        return Err(RenderError::InvalidSetting {
+            parameter: "roughness",
+            value: roughness.to_string(),
+            reason: "must lie in (0, 1]",
+        });
+    }
+    let share = 1.0 / rays_per_pixel as f32;
+    let rays = gbuffer
+        .pixels
+        .par_iter()
+        .enumerate()
+        .with_min_len(64)
+        .flat_map_iter(|(pixel, sample)| {
+            let mut rays = Vec::new();
+            let Some(s) = sample.filter(|s| !s.back_face) else {
+                return rays.into_iter();
+            };
+            let mut rng = Rng::for_key(seed, &[REFLECTION_STREAM, pixel as u64]);
+            let n = s.shading_normal;
+            let v = s.towards_camera;
+            for _ in 0..rays_per_pixel {
+                let (direction, weight) = match reflection {
+                    Reflection::Mirror => ((2.0 * n.dot(v) * n - v).normalize(), 1.0),
+                    Reflection::Ggx { roughness } => {
+                        let alpha = (roughness * roughness).max(1e-4);
+                        let (t, b) = orthonormal_basis(n);
+                        let local_view = Vec3::new(v.dot(t), v.dot(b), v.dot(n));
+                        let m = sample_ggx_vndf(local_view, alpha, rng.next_vec2());
+                        let local = (2.0 * local_view.dot(m) * m - local_view).normalize();
+                        let direction = (t * local.x + b * local.y + n * local.z).normalize();
+                        let weight = if local.z > 0.0 {
+                            smith_g1(alpha, local.z)
+                        } else {
+                            0.0
+                        };
+                        (direction, weight)
+                    }
+                };
+                if weight <= 0.0 || direction.dot(s.geometric_normal) <= 0.0 {
+                    continue;
+                }
+                let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+                rays.push(EvaluationRay {
+                    pixel: pixel as u32,
+                    origin: ray.origin,
+                    direction: ray.direction,
+                    weight: weight * share,
+                });
+            }
+            rays.into_iter()
+        })
+        .collect();
+    Ok(rays)
+}
+
+/// The reference for the probe tracer: traces each ray against the BVH and shades the true
+/// hit with `shader` (the sky for misses), in parallel. The radiance is the mean of
+/// `shading_samples` independent estimates of [`Shader::outgoing_radiance`] at the one hit
+/// (at least 1; more lower the noise of the light sampling and bounces, e.g. for ray-by-ray
+/// comparisons). Ray `i` draws its random numbers from a generator keyed by `(seed, i)`.
+/// `progress` receives `(rays done, rays)` in blocks.
+pub fn trace_reference(
+    shader: &Shader<'_>,
+    rays: &[EvaluationRay],
+    shading_samples: u32,
+    seed: u64,
+    progress: Progress<'_>,
+) -> Vec<ReferenceSample> {
+    const BLOCK: usize = 1024;
+    let shading_samples = shading_samples.max(1);
+    let done = AtomicUsize::new(0);
+    let total = rays.len();
+    rays.par_chunks(BLOCK)
+        .enumerate()
+        .flat_map_iter(|(block, chunk)| {
+            let samples: Vec<ReferenceSample> = chunk
+                .iter()
+                .enumerate()
+                .map(|(i, ray)| {
+                    let index = (block * BLOCK + i) as u64;
+                    let mut rng = Rng::for_key(seed, &[TRACE_STREAM, index]);
+                    let ray = ray.ray();
+                    match shader.scene().closest_hit(&ray, f32::INFINITY) {
+                        Some(hit) => {
+                            let mut sum = Vec3::ZERO;
+                            for _ in 0..shading_samples {
+                                sum += shader.outgoing_radiance(&hit, -ray.direction, &mut rng);
+                            }
+                            ReferenceSample {
+                                hit: Some(hit),
+                                radiance: sum / shading_samples as f32,
+                            }
+                        }
+                        None => ReferenceSample {
+                            hit: None,
+                            radiance: shader.background(ray.direction),
+                        },
+                    }
+                })
+                .collect();
+            let d = done.fetch_add(chunk.len(), Ordering::Relaxed) + chunk.len();
+            progress(d, total);
+            samples.into_iter()
+        })
+        .collect()
+}
+
+/// The image `Σ weight × radiance` per pixel over the rays (e.g. the `glossy1` component from
+/// [`trace_reference`]'s radiance, or the probe tracer's).
+///
+/// # Errors
+/// [`RenderError::LengthMismatch`] unless there is one radiance per ray;
+/// [`RenderError::InvalidSetting`] for a bad size or a ray whose pixel lies outside it.
+pub fn accumulate_rays(
+    width: u32,
+    height: u32,
+    rays: &[EvaluationRay],
+    radiance: &[Vec3],
+) -> Result<Image, RenderError> {
+    check_size(width, height)?;
+    if rays.len() != radiance.len() {
+        return Err(RenderError::LengthMismatch {
+            rays: rays.len(),
+            radiance: radiance.len(),
+        });
+    }
+    let mut image = Image::new(width, height);
+    for (ray, value) in rays.iter().zip(radiance) {
+        let pixel =
+            image
+                .rgb
+                .get_mut(ray.pixel as usize)
+                .ok_or_else(|| RenderError::InvalidSetting {
+                    parameter: "rays",
+                    value: format!("pixel {}", ray.pixel),
+                    reason: "lies outside the image",
+                })?;
+        let add = *value * ray.weight;
+        pixel[0] += add.x;
+        pixel[1] += add.y;
+        pixel[2] += add.z;
+    }
+    Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vndf_samples_reflect_into_the_upper_hemisphere_mostly() {
+        let mut rng = Rng::for_key(5, &[]);
+        let view = Vec3::new(0.5, 0.0, 0.866).normalize();
+        for (alpha, least) in [(0.01f32, 1990), (0.25, 1800), (1.0, 800)] {
+            let mut above = 0;
+            for _ in 0..2000 {
+                let m = sample_ggx_vndf(view, alpha, rng.next_vec2());
+                assert!(m.z >= 0.0 && (m.length() - 1.0).abs() < 1e-4);
+                // A visible normal faces the viewer.
+                assert!(m.dot(view) >= -1e-5);
+                let l = 2.0 * view.dot(m) * m - view;
+                above += usize::from(l.z > 0.0);
+            }
+            assert!(above > least, "alpha {alpha}: {above}");
+        }
+        // With α = 1 and normal incidence the visible normals are cosine-distributed:
+        // E[m.z] = 2/3.
+        let mean: f32 = (0..20_000)
+            .map(|_| sample_ggx_vndf(Vec3::Z, 1.0, rng.next_vec2()).z)
+            .sum::<f32>()
+            / 20_000.0;
+        assert!((mean - 2.0 / 3.0).abs() < 0.01, "{mean}");
+        // Nearly smooth: close to the mirror direction.
+        let m = sample_ggx_vndf(view, 1e-4, Vec2::new(0.3, 0.7));
+        assert!((m - Vec3::Z).length() < 1e-2);
+        assert!((smith_g1(0.5, 1.0) - 1.0).abs() < 1e-6);
+        assert!(smith_g1(0.5, 0.1) < smith_g1(0.5, 0.9));
+    }
+}

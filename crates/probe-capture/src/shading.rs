@@ -1,0 +1,483 @@
+//! The shading core shared by the probe bake and the reference renderer.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+use probe_scene::{Hit, Light, Ray, Scene};
+
+use crate::environment::Environment;
+use crate::rng::{Rng, cosine_hemisphere, uniform_triangle};
+
+/// Bounces after which paths are continued by Russian roulette (with probability equal to the
+/// largest channel of the path throughput, at most 1). Paths of up to this many bounces are
+/// never cut short, so a bake's default single bounce has no roulette noise.
+pub const RUSSIAN_ROULETTE_BOUNCES: u32 = 3;
+
+/// Why a [`Shader`] could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ShaderError {
+    /// A field of the [`Environment`] is unusable. Fix: give finite, non-negative colours
+    /// and illuminance and a non-zero sun direction.
+    #[error("environment field `{field}` {reason}")]
+    InvalidEnvironment {
+        /// The offending field of [`Environment`].
+        field: &'static str,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
+}
+
+/// Emissive triangles with a power-proportional sampling table.
+#[derive(Debug, Default)]
+struct Emitters {
+    /// Indices into `Scene::triangles`.
+    triangles: Vec<u32>,
+    /// Normalised cumulative power, one entry per emitter, the last equal to 1.
+    cdf: Vec<f32>,
+    /// Probability of choosing each emitter.
+    pmf: Vec<f32>,
+}
+
+impl Emitters {
+    fn new(scene: &Scene) -> Emitters {
+        let materials = scene.materials();
+        let mut triangles = Vec::new();
+        let mut powers = Vec::new();
+        for (index, triangle) in scene.triangles().iter().enumerate() {
+            let material = &materials[triangle.material as usize];
+            if !material.is_emissive() {
+                continue;
+            }
+            let area = triangle.area();
+            let sides = if material.double_sided { 2.0 } else { 1.0 };
+            let power = f64::from(area) * f64::from(material.emissive.element_sum()) * sides;
+            if power > 0.0 && power.is_finite() {
+                triangles.push(index as u32);
+                powers.push(power);
+            }
+        }
+        let total: f64 = powers.iter().sum();
+        let mut running = 0.0f64;
+        let mut cdf = Vec::with_capacity(powers.len());
+        for &power in &powers {
+            running += power;
+            cdf.push((running / total) as f32);
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        let pmf = powers.iter().map(|&p| (p / total) as f32).collect();
+        Emitters {
+            triangles,
+            cdf,
+            pmf,
+        }
+    }
+
+    /// Picks an emitter for a uniform `u`: its position in the table.
+    #[inline]
+    fn pick(&self, u: f32) -> usize {
+        self.cdf
+            .partition_point(|&c| c <= u)
+            .min(self.cdf.len() - 1)
+    }
+}
+
+/// A surface point ready for shading, seen from one side.
+#[derive(Clone, Copy, Debug)]
+struct Surface {
+    position: Vec3,
+    /// The plane normal on the viewer's side.
+    geometric_normal: Vec3,
+    /// The shading normal on the viewer's side.
+    shading_normal: Vec3,
+    albedo: Vec3,
+    triangle: u32,
+}
+
+/// The shading core: the radiance leaving a surface point towards a viewer, used unchanged by
+/// the probe bake ([`crate::bake`]) and the reference renderer ([`crate::render`],
+/// [`crate::trace_reference`]), so that both "shade the true hit the same way".
+///
+/// # Model
+/// - **Surfaces are Lambertian** with the material's base colour as albedo (the probes'
+///   assumption). Metalness and roughness are ignored.
+/// - **Sides.** Single-sided materials reflect and emit from their front face only (glTF
+///   `doubleSided = false`): their back faces, seen only from inside solids or through
+///   modelling gaps, are black and still block light. Double-sided materials act on both
+///   faces with the normal flipped towards the viewer.
+/// - **Emission** is the material's `emissive` radiance, seen directly by the first ray.
+/// - **Direct light** at every surface point: the scene's punctual lights (point and spot with
+///   `KHR_lights_punctual`'s inverse-square law, smooth range window and squared cone
+///   fall-off; intensity in candela is taken as radiant intensity, so a point light of
+///   intensity `I` gives irradiance `I cos θ / r²`), its directional lights and the
+///   environment's sun (illuminance times colour times `cos θ`), each with one shadow ray;
+///   one emissive triangle sampled as an area light (chosen in proportion to its power,
+///   a uniform point on it, one shadow ray); and the sky (see below).
+/// - **Bounces.** Each of `bounces` extra bounces continues the path in a cosine-distributed
+///   direction; where it hits a surface, that surface's direct light is added (its emission
+///   is not: emitters are counted by light sampling only). Paths longer than
+///   [`RUSSIAN_ROULETTE_BOUNCES`] continue by Russian roulette.
+/// - **Sky.** At a point that bounces further, the bounce ray itself samples the sky (a ray
+///   that leaves the scene adds the sky radiance); at the last point of a path one
+///   cosine-distributed shadow ray does. A black sky costs no rays.
+///
+/// With `bounces = 0` the result is emission plus direct light; with many bounces it is full
+/// global illumination.
+pub struct Shader<'s> {
+    scene: &'s Scene,
+    environment: Environment,
+    bounces: u32,
+    emitters: Emitters,
+    sun: Option<(Vec3, Vec3)>,
+    sky_is_black: bool,
+}
+
+impl std::fmt::Debug for Shader<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Shader")
+            .field("scene", &self.scene.name())
+            .field("environment", &self.environment)
+            .field("bounces", &self.bounces)
+            .field("emissive_triangles", &self.emitters.triangles.len())
+            .finish()
+    }
+}
+
+impl<'s> Shader<'s> {
+    /// A shader for `scene` lit by its own lights and emitters plus `environment`, adding
+    /// `bounces` diffuse bounces to the direct light.
+    ///
+    /// # Errors
+    /// [`ShaderError::InvalidEnvironment`] for non-finite or negative environment values.
+    pub fn new(
+        scene: &'s Scene,
+        environment: Environment,
+        bounces: u32,
+    ) -> Result<Shader<'s>, ShaderError> {
+        environment
+            .check()
+            .map_err(|(field, reason)| ShaderError::InvalidEnvironment { field, reason })?;
+        let sun = (environment.sun_illuminance > 0.0 && environment.sun_color.max_element() > 0.0)
+            .then(|| {
+                (
+                    -environment.sun_direction.normalize(),
+                    environment.sun_irradiance(),
+                )
+            });
+        Ok(Shader {
+            scene,
+            environment,
+            bounces,
+            emitters: Emitters::new(scene),
+            sun,
+            sky_is_black: environment.sky_is_black(),
+        })
+    }
+
+    /// The scene this shader lights.
+    pub fn scene(&self) -> &'s Scene {
+        self.scene
+    }
+
+    /// The environment (sun and sky).
+    pub fn environment(&self) -> &Environment {
+        &self.environment
+    }
+
+    /// The number of extra diffuse bounces after direct light.
+    pub fn bounces(&self) -> u32 {
+        self.bounces
+    }
+
+    /// Number of emissive triangles sampled as area lights.
+    pub fn emissive_triangle_count(&self) -> usize {
+        self.emitters.triangles.len()
+    }
+
+    /// Radiance of a ray that leaves the scene in unit direction `direction` (the sky).
+    #[inline]
+    pub fn background(&self, direction: Vec3) -> Vec3 {
+        self.environment.sky_radiance(direction)
+    }
+
+    /// Radiance arriving along `ray` (origin already off any surface): the shaded closest hit
+    /// or the sky, with the hit.
+    pub fn trace(&self, ray: &Ray, rng: &mut Rng) -> (Option<Hit>, Vec3) {
+        match self.scene.closest_hit(ray, f32::INFINITY) {
+            Some(hit) => {
+                let radiance = self.outgoing_radiance(&hit, -ray.direction, rng);
+                (Some(hit), radiance)
+            }
+            None => (None, self.background(ray.direction)),
+        }
+    }
+
+    /// Radiance leaving the hit point towards the viewer (`towards_viewer`, a unit vector from
+    /// the hit back along the incoming ray): emission plus direct light plus the configured
+    /// bounces (see the type's documentation for the model).
+    pub fn outgoing_radiance(&self, hit: &Hit, towards_viewer: Vec3, rng: &mut Rng) -> Vec3 {
+        let mut radiance = self.emission(hit, towards_viewer);
+        let mut throughput = Vec3::ONE;
+        let mut current = *hit;
+        let mut towards = towards_viewer;
+        let mut bounce = 0u32;
+        while let Some(surface) = self.surface(&current, towards) {
+            if surface.albedo.max_element() <= 0.0 {
+                break;
+            }
+            let last = bounce >= self.bounces;
+            radiance += throughput * self.direct_light(&surface, last, rng);
+            if last {
+                break;
+            }
+            let direction = cosine_hemisphere(surface.shading_normal, rng.next_vec2());
+            if direction.dot(surface.geometric_normal) <= 0.0 {
+                break;
+            }
+            // Cosine sampling cancels the cosine and the 1/π of the Lambertian BRDF.
+            throughput *= surface.albedo;
+            if bounce >= RUSSIAN_ROULETTE_BOUNCES {
+                let survive = throughput.max_element().min(1.0);
+                if rng.next_f32() >= survive {
+                    break;
+                }
+                throughput /= survive;
+            }
+            let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
+            match self.scene.closest_hit(&ray, f32::INFINITY) {
+                Some(next) => {
+                    current = next;
+                    towards = -direction;
+                    bounce += 1;
+                }
+                None => {
+                    radiance += throughput * self.background(direction);
+                    break;
+                }
+            }
+        }
+        radiance
+    }
+
+    /// Emitted radiance of the hit towards the viewer: the material's emission on the side it
+    /// emits from, zero otherwise.
+    #[inline]
+    pub fn emission(&self, hit: &Hit, towards_viewer: Vec3) -> Vec3 {
+        let material = &self.scene.materials()[hit.material as usize];
+        if !material.is_emissive() {
+            return Vec3::ZERO;
+        }
+        if material.double_sided || hit.geometric_normal.dot(towards_viewer) >= 0.0 {
+            material.emissive
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// The surface as seen from `towards_viewer`, or `None` for the back of a single-sided
+    /// material (black).
+    #[inline]
+    fn surface(&self, hit: &Hit, towards_viewer: Vec3) -> Option<Surface> {
+        let material = &self.scene.materials()[hit.material as usize];
+        let facing = hit.geometric_normal.dot(towards_viewer) >= 0.0;
+        if !facing && !material.double_sided {
+            return None;
+        }
+        let sign = if facing { 1.0 } else { -1.0 };
+        let geometric_normal = hit.geometric_normal * sign;
+        let mut shading_normal = hit.shading_normal * sign;
+        if shading_normal.dot(towards_viewer) <= 0.0 {
+            shading_normal = geometric_normal;
+        }
+        Some(Surface {
+            position: hit.position,
+            geometric_normal,
+            shading_normal,
+            albedo: material.base_color,
+            triangle: hit.triangle,
+        })
+    }
+
+    /// Reflected direct light at a surface: punctual and directional lights, the sun, one
+    /// emitter sample and, when `with_sky`, one sky shadow ray.
+    fn direct_light(&self, surface: &Surface, with_sky: bool, rng: &mut Rng) -> Vec3 {
+        let brdf = surface.albedo * (1.0 / PI);
+        // Sum of irradiance-like terms (radiance × cosine / pdf), multiplied by the BRDF once.
+        let mut incident = Vec3::ZERO;
+        for light in self.scene.lights() {
+            incident += self.punctual(surface, light);
+        }
+        if let Some((towards_sun, irradiance)) = self.sun {
+            incident += self.directional(surface, towards_sun, irradiance);
+        }
+        if !self.emitters.triangles.is_empty() {
+            incident += self.emitter_sample(surface, rng);
+        }
+        let mut radiance = brdf * incident;
+        if with_sky && !self.sky_is_black {
+            let direction = cosine_hemisphere(surface.shading_normal, rng.next_vec2());
+            if direction.dot(surface.geometric_normal) > 0.0 {
+                let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
+                if !self.scene.occluded(&ray, f32::INFINITY) {
+                    // Cosine sampling: BRDF × L × cos / pdf = albedo × L.
+                    radiance += surface.albedo * self.background(direction);
+                }
+            }
+        }
+        radiance
+    }
+
+    /// Irradiance from a punctual light (colour × intensity × attenuation × cos θ / r²), with
+    /// its shadow ray.
+    fn punctual(&self, surface: &Surface, light: &Light) -> Vec3 {
+        match light {
+            Light::Directional {
+                direction,
+                color,
+                illuminance,
+                ..
+            } => self.directional(surface, -*direction, *color * *illuminance),
+            Light::Point {
+                position,
+                color,
+                intensity,
+                range,
+                ..
+            } => self.local_light(surface, *position, *color * *intensity, *range, None),
+            Light::Spot {
+                position,
+                direction,
+                color,
+                intensity,
+                inner_cone,
+                outer_cone,
+                range,
+                ..
+            } => self.local_light(
+                surface,
+                *position,
+                *color * *intensity,
+                *range,
+                Some((*direction, inner_cone.cos(), outer_cone.cos())),
+            ),
+        }
+    }
+
+    /// Irradiance from a light at infinity in unit direction `towards_light`.
+    #[inline]
+    fn directional(&self, surface: &Surface, towards_light: Vec3, irradiance: Vec3) -> Vec3 {
+        let cosine = surface.shading_normal.dot(towards_light);
+        if cosine <= 0.0
+            || surface.geometric_normal.dot(towards_light) <= 0.0
+            || irradiance.max_element() <= 0.0
+        {
+            return Vec3::ZERO;
+        }
+        let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
+        if self.scene.occluded(&ray, f32::INFINITY) {
+            Vec3::ZERO
+        } else {
+            irradiance * cosine
+        }
+    }
+
+    /// Irradiance from a point or spot light (`spot` = axis, cos inner, cos outer).
+    fn local_light(
+        &self,
+        surface: &Surface,
+        position: Vec3,
+        intensity: Vec3,
+        range: Option<f32>,
+        spot: Option<(Vec3, f32, f32)>,
+    ) -> Vec3 {
+        if intensity.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let to_light = position - surface.position;
+        let distance_squared = to_light.length_squared();
+        if distance_squared <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let distance = distance_squared.sqrt();
+        let towards_light = to_light / distance;
+        let cosine = surface.shading_normal.dot(towards_light);
+        if cosine <= 0.0 || surface.geometric_normal.dot(towards_light) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let mut attenuation = 1.0 / distance_squared;
+        if let Some(range) = range {
+            // KHR_lights_punctual's recommended window: clamp(1 − (d/range)⁴, 0, 1) / d².
+            attenuation *= (1.0 - (distance / range).powi(4)).clamp(0.0, 1.0);
+        }
+        if let Some((axis, cos_inner, cos_outer)) = spot {
+            let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+            let along = axis.dot(-towards_light);
+            let t = ((along - cos_outer) * scale).clamp(0.0, 1.0);
+            attenuation *= t * t;
+        }
+        if attenuation <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
+        if self
+            .scene
+            .occluded(&ray, shadow_limit(ray.origin, position))
+        {
+            Vec3::ZERO
+        } else {
+            intensity * (attenuation * cosine)
+        }
+    }
+
+    /// One emissive-triangle sample: `Le · cos θx · cos θy / (r² · pdf_area)`.
+    fn emitter_sample(&self, surface: &Surface, rng: &mut Rng) -> Vec3 {
+        let slot = self.emitters.pick(rng.next_f32());
+        let barycentrics = uniform_triangle(rng.next_vec2());
+        let index = self.emitters.triangles[slot];
+        if index == surface.triangle {
+            return Vec3::ZERO;
+        }
+        let triangle = &self.scene.triangles()[index as usize];
+        let material = &self.scene.materials()[triangle.material as usize];
+        let point = triangle.point(barycentrics);
+        let to_light = point - surface.position;
+        let distance_squared = to_light.length_squared();
+        if distance_squared <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let distance = distance_squared.sqrt();
+        let towards_light = to_light / distance;
+        let cosine = surface.shading_normal.dot(towards_light);
+        if cosine <= 0.0 || surface.geometric_normal.dot(towards_light) <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let mut light_cosine = -triangle.geometric_normal().dot(towards_light);
+        if material.double_sided {
+            light_cosine = light_cosine.abs();
+        }
+        if light_cosine <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let area = triangle.area();
+        let pdf_area = self.emitters.pmf[slot] / area;
+        if pdf_area.is_nan() || pdf_area <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
+        if self.scene.occluded(&ray, shadow_limit(ray.origin, point)) {
+            return Vec3::ZERO;
+        }
+        material.emissive * (cosine * light_cosine / (distance_squared * pdf_area))
+    }
+}
+
+/// The `t_max` of a shadow ray from `origin` to a light at `target`: slightly short of the
+/// target (a relative 1e-4 plus a few ulps of the coordinates), so the light's own surface
+/// does not occlude it.
+#[inline]
+fn shadow_limit(origin: Vec3, target: Vec3) -> f32 {
+    let distance = (target - origin).length();
+    let ulps = target.abs().max_element().max(origin.abs().max_element()) * 8.0 * f32::EPSILON;
+    distance - 1e-4 * distance - ulps
+}
