@@ -12,6 +12,34 @@ pub enum CliError {
     /// Indexing failed.
     #[error("indexing: {0}")]
     Index(#[from] probe_index::IndexError),
+    /// Baking failed.
+    #[error("baking: {0}")]
+    Bake(#[from] probe_capture::BakeError),
+    /// The bake could not be saved.
+    #[error("saving the bake: {0}")]
+    BakeSave(#[from] probe_capture::BakeSaveError),
+    /// The bake could not be read.
+    #[error("reading the bake: {0}")]
+    BakeLoad(#[from] probe_capture::BakeLoadError),
+    /// Previews could not be written.
+    #[error("writing previews: {0}")]
+    Preview(#[from] probe_capture::PreviewError),
+    /// Rendering failed.
+    #[error("rendering: {0}")]
+    Render(#[from] probe_capture::RenderError),
+    /// An image could not be written or read.
+    #[error("image: {0}")]
+    Image(#[from] probe_capture::ImageError),
+    /// A command-line value could not be understood.
+    #[error("invalid {parameter} {value:?}: {reason}")]
+    InvalidArgument {
+        /// The flag or positional argument.
+        parameter: &'static str,
+        /// What was given.
+        value: String,
+        /// What is wrong and what is accepted.
+        reason: String,
+    },
 }
 
 /// The error and its chain of causes on one line.

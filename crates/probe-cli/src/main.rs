@@ -30,6 +30,10 @@ enum Command {
     SceneInfo(commands::scene_info::Args),
     /// Build the probe indexes: Delaunay, edge-cast probes, Voronoi neighbours, octree.
     Index(commands::index::Args),
+    /// Bake light-field probes (radiance, normals, radial distance, derived maps).
+    Bake(commands::bake::Args),
+    /// Render the path-traced reference (direct, one-bounce glossy, or full GI).
+    Reference(commands::reference::Args),
 }
 
 fn main() -> ExitCode {
@@ -37,6 +41,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::SceneInfo(args) => commands::scene_info::run(args),
         Command::Index(args) => commands::index::run(args),
+        Command::Bake(args) => commands::bake::run(args),
+        Command::Reference(args) => commands::reference::run(args),
     };
     match result {
         Ok(report) => {

@@ -14,3 +14,137 @@ pub fn open_scene(spec: &str) -> Result<Scene, CliError> {
 pub fn probe_set(spec: &str, scene: &Scene) -> Result<ProbeSet, CliError> {
     Ok(ProbeSet::from_spec(spec, scene)?)
 }
+
+/// Parses `x,y,z` into a vector; `parameter` names the flag in errors.
+pub fn parse_vec3(parameter: &'static str, text: &str) -> Result<glam::Vec3, CliError> {
+    let invalid = |reason: &str| CliError::InvalidArgument {
+        parameter,
+        value: text.to_owned(),
+        reason: reason.to_owned(),
+    };
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(invalid("expected three numbers x,y,z"));
+    }
+    let mut v = [0.0f32; 3];
+    for (slot, part) in v.iter_mut().zip(&parts) {
+        *slot = part
+            .parse::<f32>()
+            .map_err(|_| invalid("expected three numbers x,y,z"))?;
+        if !slot.is_finite() {
+            return Err(invalid("numbers must be finite"));
+        }
+    }
+    Ok(glam::Vec3::from_array(v))
+}
+
+/// The camera named `spec` (`default` for the scene's default camera), or a pose
+/// `px,py,pz:tx,ty,tz[:yfov_degrees]` (position, target, vertical field of view; 60° if left
+/// out; up is +Y).
+pub fn camera(scene: &Scene, spec: &str) -> Result<probe_scene::Camera, CliError> {
+    if spec == "default" {
+        return Ok(scene.default_camera());
+    }
+    if let Some(found) = scene.camera(spec) {
+        return Ok(found.clone());
+    }
+    let parts: Vec<&str> = spec.split(':').collect();
+    if parts.len() == 2 || parts.len() == 3 {
+        let position = parse_vec3("--camera", parts[0])?;
+        let target = parse_vec3("--camera", parts[1])?;
+        let yfov_degrees = match parts.get(2) {
+            Some(text) => text
+                .parse::<f32>()
+                .ok()
+                .filter(|f| *f > 0.0 && *f < 180.0)
+                .ok_or_else(|| CliError::InvalidArgument {
+                    parameter: "--camera",
+                    value: spec.to_owned(),
+                    reason: "the field of view must be a number of degrees in (0, 180)".into(),
+                })?,
+            None => 60.0,
+        };
+        if position == target {
+            return Err(CliError::InvalidArgument {
+                parameter: "--camera",
+                value: spec.to_owned(),
+                reason: "the position and the target are the same point".into(),
+            });
+        }
+        return Ok(probe_scene::Camera::look_at(
+            position,
+            target,
+            glam::Vec3::Y,
+            yfov_degrees.to_radians(),
+        ));
+    }
+    Err(CliError::InvalidArgument {
+        parameter: "--camera",
+        value: spec.to_owned(),
+        reason: format!(
+            "not a camera of the scene ({}) nor a pose px,py,pz:tx,ty,tz[:yfov_degrees]",
+            scene
+                .cameras()
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    })
+}
+
+/// The lighting environment: the scene's default, with the sun changed if asked.
+pub fn environment(
+    scene: &Scene,
+    sun_direction: Option<&str>,
+    sun_illuminance: Option<f32>,
+) -> Result<Option<probe_capture::Environment>, CliError> {
+    if sun_direction.is_none() && sun_illuminance.is_none() {
+        return Ok(None);
+    }
+    let mut environment = probe_capture::Environment::for_scene(scene);
+    if environment.sky_is_black() && environment.sun_illuminance == 0.0 {
+        environment = probe_capture::Environment::DEFAULT_DAYLIGHT;
+    }
+    if let Some(text) = sun_direction {
+        let direction = parse_vec3("--sun-direction", text)?;
+        if direction.length_squared() == 0.0 {
+            return Err(CliError::InvalidArgument {
+                parameter: "--sun-direction",
+                value: text.to_owned(),
+                reason: "the direction must not be zero".into(),
+            });
+        }
+        environment = environment.with_sun_direction(direction);
+    }
+    if let Some(illuminance) = sun_illuminance {
+        if !(illuminance.is_finite() && illuminance >= 0.0) {
+            return Err(CliError::InvalidArgument {
+                parameter: "--sun-illuminance",
+                value: illuminance.to_string(),
+                reason: "must be a finite number ≥ 0".into(),
+            });
+        }
+        environment = environment.with_sun_illuminance(illuminance);
+    }
+    Ok(Some(environment))
+}
+
+/// Parses a reflection lobe: `mirror` or `ggx:ROUGHNESS` with roughness in (0, 1].
+pub fn reflection(text: &str) -> Result<probe_capture::Reflection, CliError> {
+    if text == "mirror" {
+        return Ok(probe_capture::Reflection::Mirror);
+    }
+    if let Some(value) = text.strip_prefix("ggx:") {
+        if let Ok(roughness) = value.parse::<f32>() {
+            if roughness > 0.0 && roughness <= 1.0 {
+                return Ok(probe_capture::Reflection::Ggx { roughness });
+            }
+        }
+    }
+    Err(CliError::InvalidArgument {
+        parameter: "--reflection",
+        value: text.to_owned(),
+        reason: "expected `mirror` or `ggx:ROUGHNESS` with roughness in (0, 1]".into(),
+    })
+}

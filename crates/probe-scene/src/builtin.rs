@@ -397,7 +397,8 @@ fn cornell() -> BuiltinParts {
 ///   along its edge, open at `x ∈ [10, 12]` where a flight of 16 solid steps (0.25 m rise,
 ///   0.425 m run, 2 m wide) climbs from `z = 3.4` at the floor to the gallery.
 /// - Lit only by a sun: a directional light travelling along `(0.3, −1, −0.35)` normalised,
-///   colour `(1, 0.96, 0.9)`, 100,000 lux, entering through the skylight and the doorways.
+///   colour `(1, 0.96, 0.9)`, illuminance 20 (relative units, as probe-capture's default
+///   daylight: a white surface facing it reflects about 20/π), entering through the skylight and the doorways.
 ///   Supply a sky if you want one; the scene has no emissive surfaces.
 /// - Camera: in the front-left corner at `(−10.5, 1.7, 5)` looking diagonally at
 ///   `(6, 3.5, −3)`, across the pillars towards the gallery and stairs, 60°.
@@ -457,7 +458,7 @@ fn colonnade() -> BuiltinParts {
         name: "sun".to_owned(),
         direction: v(0.3, -1.0, -0.35).normalize(),
         color: v(1.0, 0.96, 0.9),
-        illuminance: 100_000.0,
+        illuminance: 20.0,
         range: None,
     };
     let camera = Camera::look_at(

@@ -1,4 +1,6 @@
 //! One module per `probes` subcommand.
 
+pub mod bake;
 pub mod index;
+pub mod reference;
 pub mod scene_info;
