@@ -135,12 +135,12 @@ pub fn reflection(text: &str) -> Result<probe_capture::Reflection, CliError> {
     if text == "mirror" {
         return Ok(probe_capture::Reflection::Mirror);
     }
-    if let Some(value) = text.strip_prefix("ggx:") {
-        if let Ok(roughness) = value.parse::<f32>() {
-            if roughness > 0.0 && roughness <= 1.0 {
-                return Ok(probe_capture::Reflection::Ggx { roughness });
-            }
-        }
+    if let Some(value) = text.strip_prefix("ggx:")
+        && let Ok(roughness) = value.parse::<f32>()
+        && roughness > 0.0
+        && roughness <= 1.0
+    {
+        return Ok(probe_capture::Reflection::Ggx { roughness });
     }
     Err(CliError::InvalidArgument {
         parameter: "--reflection",
