@@ -124,6 +124,10 @@ pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
 /// * a **nearer** neighbour (a foreground edge intrudes into the cone): `near` narrows to the
 ///   neighbour's, and a ray reaching that depth is undecided.
 ///
+/// Texels seen more obliquely than [`COS_TRUSTED`] are flagged like a farther edge. With
+/// `FieldOptions::dilate_edges` the flags (and widened bounds) also spread to the 8
+/// neighbours of every flagged texel, for edges that clip a cone's corner between samples.
+///
 /// Undecided rays go to the next probe. Upload layout per texel: distance bits with the sign
 /// bit set for a farther edge, packed normal, `near` bits, `far` bits with the sign bit set
 /// for a nearer edge.
@@ -156,6 +160,7 @@ impl TexelBounds {
         normals: &[Vec3],
         sky: f32,
         thickness_scale: f32,
+        dilate: bool,
     ) {
         let n = self.resolution;
         let n2 = (n * n) as usize;
@@ -228,8 +233,8 @@ impl TexelBounds {
                 flags[i] = (farther_edge, nearer_edge);
             }
         }
-        // Dilate by one texel: an edge can clip the corner of a cone whose 8 neighbours all
-        // sample the same surface.
+        // Optionally dilate by one texel: an edge can clip the corner of a cone whose 8
+        // neighbours all sample the same surface.
         let (ring_near, ring_far) = (self.near.clone(), self.far.clone());
         for iy in 0..n {
             for ix in 0..n {
@@ -240,7 +245,7 @@ impl TexelBounds {
                     let (px, py) = ((ix as i32 + 1 + dx) as u32, (iy as i32 + 1 + dy) as u32);
                     let [sx, sy] = layout.border_source(px, py).unwrap_or([px, py]);
                     let u = ((sy - 1) * n + (sx - 1)) as usize;
-                    let (f, nr) = flags[u];
+                    let (f, nr) = if dilate { flags[u] } else { (false, false) };
                     if f && !is_sky[i] {
                         farther_edge = true;
                         far = far.max(ring_far[u]);
@@ -353,6 +358,7 @@ impl PackedField {
                 &field.normals[range.clone()],
                 sky,
                 thickness,
+                options.dilate_edges,
             );
             for (i, out) in geometry[range].iter_mut().enumerate() {
                 *out = texel_bounds.packed[i];
@@ -894,4 +900,73 @@ pub(crate) fn diffuse_params(
         kd_count: irradiance.kd_count,
         pad1: [0; 3],
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Distance and inward normal of the box room `[lo, hi]` seen from `p` along `d`.
+    fn box_room(p: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> (f32, Vec3) {
+        let mut best = (f32::INFINITY, Vec3::ZERO);
+        for axis in 0..3 {
+            if d[axis] > 0.0 {
+                let t = (hi[axis] - p[axis]) / d[axis];
+                if t < best.0 {
+                    let mut n = Vec3::ZERO;
+                    n[axis] = -1.0;
+                    best = (t, n);
+                }
+            } else if d[axis] < 0.0 {
+                let t = (lo[axis] - p[axis]) / d[axis];
+                if t < best.0 {
+                    let mut n = Vec3::ZERO;
+                    n[axis] = 1.0;
+                    best = (t, n);
+                }
+            }
+        }
+        best
+    }
+
+    /// Flag counts (farther, nearer) of one probe in a box room.
+    fn flags_in_room(p: Vec3, n: u32) -> (usize, usize, usize) {
+        let (lo, hi) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0));
+        let layout = OctaLayout::new(n).unwrap();
+        let mut distance = vec![0.0; layout.padded_len()];
+        let mut normals = vec![Vec3::ZERO; layout.padded_len()];
+        let mut grazing = 0;
+        for iy in 0..n {
+            for ix in 0..n {
+                let d = layout.texel_direction(ix, iy);
+                let (t, nn) = box_room(p, d, lo, hi);
+                distance[layout.interior_index(ix, iy)] = t;
+                normals[layout.interior_index(ix, iy)] = nn;
+                if nn.dot(d).abs() < COS_TRUSTED {
+                    grazing += 1;
+                }
+            }
+        }
+        layout.pad(&mut distance).unwrap();
+        layout.pad(&mut normals).unwrap();
+        let centers: Vec<Vec3> = (0..n * n)
+            .map(|i| probe_octa::decode(texel_center(n, i % n, i / n)))
+            .collect();
+        let mut bounds = TexelBounds::new(n);
+        bounds.compute(&layout, &centers, &distance, &normals, 100.0, 1.0, false);
+        let farther = bounds.packed.iter().filter(|t| t[0] & SIGN_BIT != 0).count();
+        let nearer = bounds.packed.iter().filter(|t| t[3] & SIGN_BIT != 0).count();
+        (farther, nearer, grazing)
+    }
+
+    /// Creases (the room's corners) are continuous: a probe in a box room has no edge
+    /// texels beyond those seeing walls obliquely.
+    #[test]
+    fn room_corners_are_not_edges() {
+        for p in [Vec3::new(0.0, 1.5, 0.0), Vec3::new(-0.3, 1.2, -0.3), Vec3::new(1.5, 0.4, -1.2)] {
+            let (farther, nearer, grazing) = flags_in_room(p, 64);
+            eprintln!("{p}: {farther} farther, {nearer} nearer, {grazing} grazing");
+            assert_eq!(nearer, 0, "{p}");
+        }
+    }
 }

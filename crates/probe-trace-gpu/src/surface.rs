@@ -28,21 +28,25 @@ pub(crate) fn texel_center(n: u32, ix: u32, iy: u32) -> Vec2 {
     )
 }
 
+/// The packed normal meaning "unknown": x = `i16::MIN`, which `encode_snorm16` never
+/// produces.
+pub(crate) const UNKNOWN_NORMAL: u32 = 0x0000_8000;
+
 /// Packs a unit normal as two 16-bit snorm octahedral coordinates (x in the low half), as WGSL's
-/// `unpack2x16snorm` reads them. A zero vector packs as 0 and means "unknown".
+/// `unpack2x16snorm` reads them. A zero vector packs as [`UNKNOWN_NORMAL`].
 #[inline]
 pub(crate) fn pack_normal(normal: Vec3) -> u32 {
     if normal == Vec3::ZERO {
-        return 0;
+        return UNKNOWN_NORMAL;
     }
     let [x, y] = probe_octa::encode_snorm16(normal);
     u32::from(x as u16) | (u32::from(y as u16) << 16)
 }
 
-/// Unpacks [`pack_normal`]; 0 gives the zero vector.
+/// Unpacks [`pack_normal`]; [`UNKNOWN_NORMAL`] gives the zero vector.
 #[inline]
 pub(crate) fn unpack_normal(packed: u32) -> Vec3 {
-    if packed == 0 {
+    if packed == UNKNOWN_NORMAL {
         return Vec3::ZERO;
     }
     let x = (packed & 0xFFFF) as u16 as i16;
@@ -148,6 +152,9 @@ mod tests {
             assert!(back.angle_between(d) < 1e-4, "{d} -> {back}");
         }
         assert_eq!(unpack_normal(pack_normal(Vec3::ZERO)), Vec3::ZERO);
+        // +z packs to 0, which is a real normal, not "unknown".
+        assert_eq!(pack_normal(Vec3::Z), 0);
+        assert_eq!(unpack_normal(0), Vec3::Z);
     }
 
     #[test]

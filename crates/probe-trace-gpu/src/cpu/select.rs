@@ -222,3 +222,194 @@ pub(crate) fn nearest_probe(words: &[u32], start: u32, count: u32, p: Vec3) -> u
     }
     best_probe
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bytemuck::Zeroable;
+    use probe_index::{
+        NearestProbe, ProbeGrid, ProbeQuery, ProbeSelector, RayHit, SceneGeometry,
+        SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours, VoronoiSelector,
+    };
+
+    use crate::input::ProbeSelection;
+
+    /// Deterministic numbers in [0, 1).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn point(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
+            lo + (hi - lo) * Vec3::new(self.next(), self.next(), self.next())
+        }
+
+        fn direction(&mut self) -> Vec3 {
+            (self.point(Vec3::NEG_ONE, Vec3::ONE) + Vec3::splat(1e-3)).normalize()
+        }
+    }
+
+    fn params_of(selection: &PackedSelection) -> TraceParams {
+        TraceParams {
+            selector: selection.kind,
+            grid: selection.grid,
+            svo: selection.svo,
+            svo_nodes: selection.svo_nodes,
+            svo_leaves: selection.svo_leaves,
+            kd_nodes: selection.kd_nodes,
+            kd_count: selection.kd_count,
+            neighbour_table: selection.neighbour_table,
+            neighbour_resolution: selection.neighbour_resolution,
+            ..TraceParams::zeroed()
+        }
+    }
+
+    /// Checks the packed selector against the reference on random queries, at the start of a
+    /// ray and after a failure (of a probe in the list, and of one elsewhere).
+    fn check(reference: &dyn ProbeSelector, selection: &ProbeSelection<'_>, positions: &[Vec3], lo: Vec3, hi: Vec3) {
+        let packed = PackedSelection::new(selection, positions.len()).unwrap();
+        let params = params_of(&packed);
+        let padded: Vec<[f32; 4]> = positions.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect();
+        let ours = Selector {
+            params: &params,
+            selection: &packed,
+            positions: &padded,
+        };
+        let mut rng = Lcg(11);
+        let (lo, hi) = (lo - Vec3::splat(0.5), hi + Vec3::splat(0.5));
+        for i in 0..3000 {
+            let position = if i % 10 == 0 {
+                // Exactly at a probe.
+                positions[i % positions.len()]
+            } else {
+                rng.point(lo, hi)
+            };
+            let direction = rng.direction();
+            let start = reference.select(&ProbeQuery {
+                position,
+                direction,
+                failed_probe: None,
+            });
+            let got = ours.select(position, direction, NO_PROBE);
+            assert_eq!(got.as_slice(), start.as_slice(), "at {position} along {direction}");
+            let failed = match start.as_slice().first() {
+                Some(&p) if i % 2 == 0 => p,
+                _ => (rng.next() * positions.len() as f32) as u32 % positions.len() as u32,
+            };
+            let after = reference.select(&ProbeQuery {
+                position,
+                direction,
+                failed_probe: Some(failed),
+            });
+            let got = ours.select(position, direction, failed);
+            assert_eq!(got.as_slice(), after.as_slice(), "after {failed} failed at {position}");
+        }
+    }
+
+    #[test]
+    fn grid_selection_matches_probe_index() {
+        let grid = ProbeGrid::new(Vec3::new(-1.0, 0.2, 0.5), Vec3::new(0.7, 1.1, 0.45), [4, 3, 5]).unwrap();
+        let positions = grid.positions();
+        let hi = grid.probe_position(grid.probe_count() as u32 - 1);
+        check(&grid, &ProbeSelection::Grid(grid), &positions, Vec3::new(-1.0, 0.2, 0.5), hi);
+    }
+
+    #[test]
+    fn voronoi_selection_matches_probe_index() {
+        let mut rng = Lcg(5);
+        let positions: Vec<Vec3> = (0..60).map(|_| rng.point(Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0))).collect();
+        let tets = Tetrahedralization::build(&positions).unwrap();
+        let neighbours = VoronoiNeighbours::bake(&tets, 8).unwrap();
+        let nearest = NearestProbe::new(&positions);
+        let reference = VoronoiSelector {
+            positions: &positions,
+            nearest: &nearest,
+            neighbours: &neighbours,
+        };
+        let selection = ProbeSelection::Voronoi {
+            nearest: &nearest,
+            neighbours: &neighbours,
+        };
+        check(&reference, &selection, &positions, Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0));
+    }
+
+    /// Triangles of axis-aligned boxes, brute-force ray casting.
+    struct Boxes(Vec<[Vec3; 3]>);
+
+    impl Boxes {
+        fn new(boxes: &[(Vec3, Vec3)]) -> Self {
+            let mut tris = Vec::new();
+            for &(lo, hi) in boxes {
+                let c = |i: u32| {
+                    Vec3::new(
+                        if i & 1 == 0 { lo.x } else { hi.x },
+                        if i & 2 == 0 { lo.y } else { hi.y },
+                        if i & 4 == 0 { lo.z } else { hi.z },
+                    )
+                };
+                for [a, b, cc, d] in [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]] {
+                    tris.push([c(a), c(b), c(cc)]);
+                    tris.push([c(a), c(cc), c(d)]);
+                }
+            }
+            Self(tris)
+        }
+    }
+
+    impl SceneGeometry for Boxes {
+        fn triangle_count(&self) -> usize {
+            self.0.len()
+        }
+
+        fn triangle(&self, index: usize) -> [Vec3; 3] {
+            self.0[index]
+        }
+
+        fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
+            let mut best: Option<RayHit> = None;
+            for [a, b, c] in &self.0 {
+                let (e1, e2) = (*b - *a, *c - *a);
+                let p = direction.cross(e2);
+                let det = e1.dot(p);
+                if det.abs() < 1e-12 {
+                    continue;
+                }
+                let s = origin - *a;
+                let u = s.dot(p) / det;
+                let q = s.cross(e1);
+                let v = direction.dot(q) / det;
+                let t = e2.dot(q) / det;
+                if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t <= max_distance && best.is_none_or(|h| t < h.distance) {
+                    best = Some(RayHit {
+                        distance: t,
+                        normal: e1.cross(e2).normalize(),
+                    });
+                }
+            }
+            best
+        }
+    }
+
+    #[test]
+    fn octree_selection_matches_probe_index() {
+        let geometry = Boxes::new(&[
+            (Vec3::ZERO, Vec3::new(4.0, 0.1, 4.0)),
+            (Vec3::new(1.5, 0.0, 1.5), Vec3::new(2.5, 2.0, 2.5)),
+        ]);
+        let grid = ProbeGrid::new(Vec3::new(0.5, 0.5, 0.5), Vec3::new(1.5, 1.0, 1.5), [3, 2, 3]).unwrap();
+        let positions = grid.positions();
+        let svo = SparseVoxelOctree::build(
+            &geometry,
+            &positions,
+            &SvoOptions {
+                max_depth: 4,
+                ..SvoOptions::default()
+            },
+        )
+        .unwrap();
+        check(&svo, &ProbeSelection::SparseVoxelOctree(&svo), &positions, Vec3::ZERO, Vec3::new(4.0, 2.0, 4.0));
+    }
+}

@@ -62,9 +62,11 @@ fn texel_center(n: u32, cell: vec2<u32>) -> vec2<f32> {
     );
 }
 
-// src/surface.rs unpack_normal: 0 is "unknown" (the zero vector).
+// src/surface.rs unpack_normal: UNKNOWN_NORMAL (x = i16::MIN) is "unknown" (the zero vector).
+const UNKNOWN_NORMAL: u32 = 0x00008000u;
+
 fn unpack_normal(packed: u32) -> vec3<f32> {
-    if (packed == 0u) {
+    if (packed == UNKNOWN_NORMAL) {
         return vec3<f32>(0.0);
     }
     return octa_decode(unpack2x16snorm(packed));
