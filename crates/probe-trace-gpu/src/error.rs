@@ -7,7 +7,9 @@ pub enum GpuError {
     /// No adapter (GPU or software rasteriser) is available. Fix: install a Vulkan, Metal or
     /// DX12 driver; on Linux without a GPU, Mesa's software Vulkan (`mesa-vulkan-drivers`,
     /// "lavapipe") is enough. `WGPU_BACKEND` and `WGPU_ADAPTER_NAME` steer the choice.
-    #[error("no GPU adapter is available ({source}); install a Vulkan driver (e.g. Mesa's lavapipe, package `mesa-vulkan-drivers`)")]
+    #[error(
+        "no GPU adapter is available ({source}); install a Vulkan driver (e.g. Mesa's lavapipe, package `mesa-vulkan-drivers`)"
+    )]
     NoAdapter {
         /// wgpu's reason.
         #[source]

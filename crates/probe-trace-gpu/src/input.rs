@@ -2,7 +2,9 @@
 //! `probe-index`.
 
 use glam::{Vec2, Vec3};
-use probe_index::{NearestProbe, ProbeGrid, SparseVoxelOctree, Tetrahedralization, VoronoiNeighbours};
+use probe_index::{
+    NearestProbe, ProbeGrid, SparseVoxelOctree, Tetrahedralization, VoronoiNeighbours,
+};
 
 /// The baked probes a ray is traced through: per probe an `N×N` octahedral map of radial
 /// distance, surface normal and radiance, each stored padded (`(N+2)²` texels, the layout of
@@ -39,19 +41,21 @@ pub struct FieldOptions {
     /// Larger values accept more hits behind a texel's plane (fewer UNKNOWNs at corners and on
     /// curved surfaces) at the price of thicker-looking objects. Default 1.
     pub thickness_scale: f32,
-    /// Also treat the 8 neighbours of every edge texel as edges. An occluding edge can cut the
-    /// corner of a texel whose neighbours all sample the same surface; then a ray passing just
-    /// beside the edge gets a wrong hit. Dilating trades those wrong hits for more rays handed
-    /// on (and more left UNKNOWN): on the Cornell box at 64² it cut wrong answers from 1.0 % to
-    /// 0.3 % of rays but raised UNKNOWN from 6 % to 16 % (see `BENCHMARKS.md`). Default false.
-    pub dilate_edges: bool,
+    /// Leave undecided (hand on) rays near occluding edges in both directions: behind a
+    /// foreground edge that may intrude into a background texel's cone, and within one texel of
+    /// any edge (flags dilated). An edge can cut the corner of a texel whose neighbours all
+    /// sample one surface, and a thin foreground can hide in a background texel; then a ray
+    /// passing just beside gets a wrong answer. The conservative policy trades those wrong
+    /// answers for rays left UNKNOWN: on the Cornell box at 64² wrong answers fall from 2.3 % to
+    /// 0.3 % of rays while UNKNOWN rises from 0.3 % to 18 % (see `BENCHMARKS.md`). Default false.
+    pub conservative_edges: bool,
 }
 
 impl Default for FieldOptions {
     fn default() -> Self {
         Self {
             thickness_scale: 1.0,
-            dilate_edges: false,
+            conservative_edges: false,
         }
     }
 }

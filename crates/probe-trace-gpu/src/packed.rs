@@ -71,7 +71,11 @@ fn check_finite(parameter: &'static str, values: &[Vec3]) -> Result<(), UploadEr
     }
 }
 
-fn check_length(parameter: &'static str, expected: usize, actual: usize) -> Result<(), UploadError> {
+fn check_length(
+    parameter: &'static str,
+    expected: usize,
+    actual: usize,
+) -> Result<(), UploadError> {
     if expected == actual {
         Ok(())
     } else {
@@ -84,7 +88,11 @@ fn check_length(parameter: &'static str, expected: usize, actual: usize) -> Resu
 }
 
 /// Elements addressable by a `u32` index in WGSL.
-fn check_addressable(buffer: &'static str, elements: u64, bytes_per_element: u64) -> Result<(), UploadError> {
+fn check_addressable(
+    buffer: &'static str,
+    elements: u64,
+    bytes_per_element: u64,
+) -> Result<(), UploadError> {
     if elements > u64::from(u32::MAX) {
         Err(UploadError::TooLarge {
             buffer,
@@ -97,7 +105,16 @@ fn check_addressable(buffer: &'static str, elements: u64, bytes_per_element: u64
 }
 
 /// Offsets of the 8 neighbours of a texel.
-const NEIGHBOURS: [(i32, i32); 8] = [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)];
+const NEIGHBOURS: [(i32, i32); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
 
 /// Surfaces met at a cosine below this (about 76°) are too oblique for a texel's plane to
 /// place hits (seed 000 §4.2.1: a probe seeing a surface at a grazing angle is a poor
@@ -112,25 +129,25 @@ pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
 /// A texel's surface is the plane through its stored point with its stored normal
 /// ([`crate::surface::texel_surface`]); `near` and `far` bound the depth of that patch
 /// (thickness included). The surface is not continuous across a texel when a neighbour (of
-/// the 8, across seams through the padding) sees sky where it does not (or the reverse), or
-/// when the two surfaces are stacked: the neighbour's point lies farther than the texel's
-/// thickness from the texel's plane, on the same side as the texel's point lies from the
-/// neighbour's plane (one surface occludes the other; a crease or a curved surface puts each
-/// point on the other side of the other's plane). Such a texel's cone holds surfaces the
-/// probe cannot place:
-/// * a **farther** neighbour (its surface is an occluding edge): beyond the edge the cone
-///   shows the background, so the plane is trusted only to say "in front"; a crossing of the
-///   plane is not reported as a hit, and `far` widens to the neighbour's;
-/// * a **nearer** neighbour (a foreground edge intrudes into the cone): `near` narrows to the
-///   neighbour's, and a ray reaching that depth is undecided.
+/// the 8, across seams through the padding) sees sky where it does not, or when the two
+/// surfaces are stacked: the neighbour's point lies farther than the texel's thickness from the
+/// texel's plane, on the same side as the texel's point lies from the neighbour's plane (one
+/// surface occludes the other; a crease or a curved surface puts each point on the other side
+/// of the other's plane).
 ///
-/// Texels seen more obliquely than [`COS_TRUSTED`] are flagged like a farther edge. With
-/// `FieldOptions::dilate_edges` the flags (and widened bounds) also spread to the 8
-/// neighbours of every flagged texel, for edges that clip a cone's corner between samples.
+/// A texel with a **farther** neighbour shows an occluding edge: beyond it the cone holds the
+/// background, so its plane is trusted only to say "in front" — a crossing of the plane is not
+/// reported as a hit (the ray is handed on). Texels seen more obliquely than [`COS_TRUSTED`]
+/// are flagged the same way.
 ///
-/// Undecided rays go to the next probe. Upload layout per texel: distance bits with the sign
-/// bit set for a farther edge, packed normal, `near` bits, `far` bits with the sign bit set
-/// for a nearer edge.
+/// With `FieldOptions::conservative_edges`, also: a texel with a **nearer** neighbour (a
+/// foreground edge may intrude into its cone) gets that neighbour's `near` and leaves
+/// undecided any ray that reaches it; farther-edge texels widen `far` to the neighbour's; and
+/// all flags spread to the 8 neighbours of flagged texels (an edge can cut the corner of a
+/// cone whose neighbours all sample one surface).
+///
+/// Upload layout per texel: distance bits with the sign bit set for a farther edge, packed
+/// normal, `near` bits, `far` bits with the sign bit set for a nearer edge.
 pub(crate) struct TexelBounds {
     resolution: u32,
     /// Interior, row-major.
@@ -152,6 +169,7 @@ impl TexelBounds {
     }
 
     /// Fills the bounds of one probe from its padded distance and normal maps.
+    #[allow(clippy::too_many_arguments)]
     fn compute(
         &mut self,
         layout: &OctaLayout,
@@ -160,7 +178,7 @@ impl TexelBounds {
         normals: &[Vec3],
         sky: f32,
         thickness_scale: f32,
-        dilate: bool,
+        conservative: bool,
     ) {
         let n = self.resolution;
         let n2 = (n * n) as usize;
@@ -217,8 +235,10 @@ impl TexelBounds {
                         let du = distance[layout.interior_index(sx - 1, sy - 1)];
                         if du >= d {
                             farther_edge = true;
-                            far = far.max(base_far[u]);
-                        } else {
+                            if conservative {
+                                far = far.max(base_far[u]);
+                            }
+                        } else if conservative {
                             nearer_edge = true;
                             near = near.min(base_near[u]);
                         }
@@ -233,8 +253,7 @@ impl TexelBounds {
                 flags[i] = (farther_edge, nearer_edge);
             }
         }
-        // Optionally dilate by one texel: an edge can clip the corner of a cone whose 8
-        // neighbours all sample the same surface.
+        // Conservative edges: dilate by one texel.
         let (ring_near, ring_far) = (self.near.clone(), self.far.clone());
         for iy in 0..n {
             for ix in 0..n {
@@ -245,7 +264,11 @@ impl TexelBounds {
                     let (px, py) = ((ix as i32 + 1 + dx) as u32, (iy as i32 + 1 + dy) as u32);
                     let [sx, sy] = layout.border_source(px, py).unwrap_or([px, py]);
                     let u = ((sy - 1) * n + (sx - 1)) as usize;
-                    let (f, nr) = if dilate { flags[u] } else { (false, false) };
+                    let (f, nr) = if conservative {
+                        flags[u]
+                    } else {
+                        (false, false)
+                    };
                     if f && !is_sky[i] {
                         farther_edge = true;
                         far = far.max(ring_far[u]);
@@ -323,11 +346,7 @@ impl PackedField {
             }
         }
 
-        let radiance: Vec<f32> = field
-            .radiance
-            .iter()
-            .flat_map(|c| c.to_array())
-            .collect();
+        let radiance: Vec<f32> = field.radiance.iter().flat_map(|c| c.to_array()).collect();
         let sky = field.sky_distance;
         let layout = OctaLayout::new(n).expect("resolution checked");
         let centers: Vec<Vec3> = (0..n * n)
@@ -358,20 +377,25 @@ impl PackedField {
                 &field.normals[range.clone()],
                 sky,
                 thickness,
-                options.dilate_edges,
+                options.conservative_edges,
             );
             for (i, out) in geometry[range].iter_mut().enumerate() {
                 *out = texel_bounds.packed[i];
             }
             let near_map = OctaMap::from_interior(n, &texel_bounds.near).expect("sizes match");
             let far_map = OctaMap::from_interior(n, &texel_bounds.far).expect("sizes match");
-            let near_pyramid =
-                MinMaxPyramid::build(&near_map, FineRead::Nearest, level_count).expect("power of two");
-            let far_pyramid =
-                MinMaxPyramid::build(&far_map, FineRead::Nearest, level_count).expect("power of two");
-            for level in 1..level_count as usize {
+            let near_pyramid = MinMaxPyramid::build(&near_map, FineRead::Nearest, level_count)
+                .expect("power of two");
+            let far_pyramid = MinMaxPyramid::build(&far_map, FineRead::Nearest, level_count)
+                .expect("power of two");
+            for (level, &offset) in level_offsets
+                .iter()
+                .enumerate()
+                .take(level_count as usize)
+                .skip(1)
+            {
                 let side = (n >> level) as usize;
-                let start = level_offsets[level] as usize + probe * side * side;
+                let start = offset as usize + probe * side * side;
                 let mins = near_pyramid.level(level).expect("level built");
                 let maxs = far_pyramid.level(level).expect("level built");
                 for (k, out) in pyramid[start..start + side * side].iter_mut().enumerate() {
@@ -538,8 +562,12 @@ impl PackedSelection {
                     4,
                 )?;
                 packed.kind = SELECT_VORONOI;
-                packed.kd_nodes =
-                    push_kd_nodes(&mut packed.words, nearest.nodes(), "nearest-probe tree", probe_count)?;
+                packed.kd_nodes = push_kd_nodes(
+                    &mut packed.words,
+                    nearest.nodes(),
+                    "nearest-probe tree",
+                    probe_count,
+                )?;
                 packed.kd_count = nearest.nodes().len() as u32;
                 packed.neighbour_table = packed.words.len() as u32;
                 packed.neighbour_resolution = neighbours.resolution();
@@ -579,7 +607,10 @@ const MAX_LOW_RESOLUTION: u32 = 256;
 
 impl PackedIrradiance {
     /// Checks and packs irradiance data.
-    pub fn new(field: &IrradianceField<'_>, interpolation: &Interpolation<'_>) -> Result<Self, UploadError> {
+    pub fn new(
+        field: &IrradianceField<'_>,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<Self, UploadError> {
         let probes = field.positions.len();
         if probes == 0 {
             return Err(UploadError::NoProbes);
@@ -667,15 +698,21 @@ impl PackedIrradiance {
                     for &v in &record.vertices {
                         check_probe("tetrahedralization", v, probes)?;
                     }
-                    packed.words.extend_from_slice(bytemuck::cast_slice(std::slice::from_ref(record)));
+                    packed
+                        .words
+                        .extend_from_slice(bytemuck::cast_slice(std::slice::from_ref(record)));
                 }
                 packed.vertex_tets = packed.words.len() as u32;
                 packed
                     .words
                     .extend((0..probes).map(|i| tets.tetrahedron_of_vertex(i)));
                 let nearest = probe_index::NearestProbe::new(field.positions);
-                packed.kd_nodes =
-                    push_kd_nodes(&mut packed.words, nearest.nodes(), "nearest-probe tree", probes)?;
+                packed.kd_nodes = push_kd_nodes(
+                    &mut packed.words,
+                    nearest.nodes(),
+                    "nearest-probe tree",
+                    probes,
+                )?;
                 packed.kd_count = nearest.nodes().len() as u32;
             }
         }
@@ -835,7 +872,10 @@ pub(crate) fn prepare_rays(
                 return Err(bad(index, "the direction is zero"));
             }
             if !(ray.t_min >= 0.0 && ray.t_min.is_finite() && ray.t_max >= ray.t_min) {
-                return Err(bad(index, "the range is not 0 <= t_min <= t_max with t_min finite"));
+                return Err(bad(
+                    index,
+                    "the range is not 0 <= t_min <= t_max with t_min finite",
+                ));
             }
             Ok(crate::ray::TraceRay {
                 direction: unit.to_array(),
@@ -954,8 +994,16 @@ mod tests {
             .collect();
         let mut bounds = TexelBounds::new(n);
         bounds.compute(&layout, &centers, &distance, &normals, 100.0, 1.0, false);
-        let farther = bounds.packed.iter().filter(|t| t[0] & SIGN_BIT != 0).count();
-        let nearer = bounds.packed.iter().filter(|t| t[3] & SIGN_BIT != 0).count();
+        let farther = bounds
+            .packed
+            .iter()
+            .filter(|t| t[0] & SIGN_BIT != 0)
+            .count();
+        let nearer = bounds
+            .packed
+            .iter()
+            .filter(|t| t[3] & SIGN_BIT != 0)
+            .count();
         (farther, nearer, grazing)
     }
 
@@ -963,7 +1011,11 @@ mod tests {
     /// texels beyond those seeing walls obliquely.
     #[test]
     fn room_corners_are_not_edges() {
-        for p in [Vec3::new(0.0, 1.5, 0.0), Vec3::new(-0.3, 1.2, -0.3), Vec3::new(1.5, 0.4, -1.2)] {
+        for p in [
+            Vec3::new(0.0, 1.5, 0.0),
+            Vec3::new(-0.3, 1.2, -0.3),
+            Vec3::new(1.5, 0.4, -1.2),
+        ] {
             let (farther, nearer, grazing) = flags_in_room(p, 64);
             eprintln!("{p}: {farther} farther, {nearer} nearer, {grazing} grazing");
             assert_eq!(nearer, 0, "{p}");

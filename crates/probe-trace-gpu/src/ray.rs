@@ -49,7 +49,8 @@ pub enum RayStatus {
     /// A probe saw the surface the ray hits: `t`, position, normal and radiance are its.
     Hit,
     /// A probe saw the whole rest of the ray pass in front of everything it captured, out to
-    /// the ray's `t_max` or to the sky: radiance is that probe's sky in the ray's direction.
+    /// the ray's `t_max` or to its sky distance: radiance is that probe's texel in the ray's
+    /// direction (its sky).
     Miss,
     /// No probe tried could see the whole ray (the cap on probes was reached or the selection
     /// ran out). The fallback of seed 003 §5.4: radiance is the first probe tried used as an
@@ -74,10 +75,11 @@ impl RayStatus {
 pub struct RayResult {
     /// Hit, miss or unknown.
     pub status: RayStatus,
-    /// Ray parameter of the hit (Hit), the ray's `t_max` (Miss), or how far the ray was
-    /// verified empty (Unknown).
+    /// Ray parameter of the hit (Hit); where the answering probe's check ended, the ray's
+    /// `t_max` or just inside the probe's sky distance (Miss); how far the ray was verified
+    /// empty (Unknown). Always finite.
     pub t: f32,
-    /// `origin + t·direction` (for a Miss with infinite `t_max`: infinite).
+    /// `origin + t·direction`.
     pub position: Vec3,
     /// The stored surface normal at the hit (zero unless Hit).
     pub normal: Vec3,

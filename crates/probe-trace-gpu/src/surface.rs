@@ -174,11 +174,19 @@ mod tests {
         let c = texel_center(n, ix, iy);
         for k in 0..=10 {
             for l in 0..=10 {
-                let p = c + Vec2::new((k as f32 / 10.0 - 0.5) * step, (l as f32 / 10.0 - 0.5) * step);
+                let p = c + Vec2::new(
+                    (k as f32 / 10.0 - 0.5) * step,
+                    (l as f32 / 10.0 - 0.5) * step,
+                );
                 let dir = decode(p);
                 // Intersection of the ray from the probe along dir with the plane.
                 let r = y.dot(normal) / dir.dot(normal);
-                assert!(r >= s.near - 1e-4 && r <= s.far + 1e-4, "{r} outside [{}, {}]", s.near, s.far);
+                assert!(
+                    r >= s.near - 1e-4 && r <= s.far + 1e-4,
+                    "{r} outside [{}, {}]",
+                    s.near,
+                    s.far
+                );
             }
         }
         assert!(s.visible_normal.dot(center) < 0.0);

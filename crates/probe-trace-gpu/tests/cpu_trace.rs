@@ -4,18 +4,26 @@
 mod support;
 
 use glam::{Vec2, Vec3};
-use probe_index::{NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours};
+use probe_index::{
+    NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
+};
 use probe_scene::{Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
     TraceSummary,
 };
-use support::{Geometry, accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
+use support::{
+    Geometry, accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays,
+};
 
 /// A quad as two triangles, wound so that its normal points along `facing`.
 fn quad(out: &mut Vec<Triangle>, c: [Vec3; 4], facing: Vec3, material: u32) {
     let n = (c[1] - c[0]).cross(c[2] - c[0]);
-    let c = if n.dot(facing) >= 0.0 { c } else { [c[0], c[3], c[2], c[1]] };
+    let c = if n.dot(facing) >= 0.0 {
+        c
+    } else {
+        [c[0], c[3], c[2], c[1]]
+    };
     let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
     for [i, j, k] in [[0, 1, 2], [0, 2, 3]] {
         out.push(Triangle {
@@ -32,12 +40,60 @@ fn box_faces(out: &mut Vec<Triangle>, lo: Vec3, hi: Vec3, inward: bool, first_ma
     let s = if inward { -1.0 } else { 1.0 };
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     let faces = [
-        ([v(lo.x, lo.y, lo.z), v(lo.x, hi.y, lo.z), v(lo.x, hi.y, hi.z), v(lo.x, lo.y, hi.z)], -Vec3::X),
-        ([v(hi.x, lo.y, lo.z), v(hi.x, hi.y, lo.z), v(hi.x, hi.y, hi.z), v(hi.x, lo.y, hi.z)], Vec3::X),
-        ([v(lo.x, lo.y, lo.z), v(hi.x, lo.y, lo.z), v(hi.x, lo.y, hi.z), v(lo.x, lo.y, hi.z)], -Vec3::Y),
-        ([v(lo.x, hi.y, lo.z), v(hi.x, hi.y, lo.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)], Vec3::Y),
-        ([v(lo.x, lo.y, lo.z), v(hi.x, lo.y, lo.z), v(hi.x, hi.y, lo.z), v(lo.x, hi.y, lo.z)], -Vec3::Z),
-        ([v(lo.x, lo.y, hi.z), v(hi.x, lo.y, hi.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)], Vec3::Z),
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(lo.x, hi.y, lo.z),
+                v(lo.x, hi.y, hi.z),
+                v(lo.x, lo.y, hi.z),
+            ],
+            -Vec3::X,
+        ),
+        (
+            [
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(hi.x, hi.y, hi.z),
+                v(hi.x, lo.y, hi.z),
+            ],
+            Vec3::X,
+        ),
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, lo.y, hi.z),
+                v(lo.x, lo.y, hi.z),
+            ],
+            -Vec3::Y,
+        ),
+        (
+            [
+                v(lo.x, hi.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(hi.x, hi.y, hi.z),
+                v(lo.x, hi.y, hi.z),
+            ],
+            Vec3::Y,
+        ),
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(lo.x, hi.y, lo.z),
+            ],
+            -Vec3::Z,
+        ),
+        (
+            [
+                v(lo.x, lo.y, hi.z),
+                v(hi.x, lo.y, hi.z),
+                v(hi.x, hi.y, hi.z),
+                v(lo.x, hi.y, hi.z),
+            ],
+            Vec3::Z,
+        ),
     ];
     for (k, (corners, normal)) in faces.into_iter().enumerate() {
         quad(out, corners, normal * s, first_material + k as u32 % 6);
@@ -50,17 +106,37 @@ fn room(pillar: bool) -> Scene {
         .map(|i| {
             Material::diffuse(
                 format!("wall {i}"),
-                Vec3::new(0.2 + 0.13 * i as f32, 0.9 - 0.12 * i as f32, 0.3 + 0.1 * (i % 3) as f32),
+                Vec3::new(
+                    0.2 + 0.13 * i as f32,
+                    0.9 - 0.12 * i as f32,
+                    0.3 + 0.1 * (i % 3) as f32,
+                ),
             )
         })
         .collect();
     materials.push(Material::diffuse("pillar", Vec3::new(0.9, 0.9, 0.1)));
     let mut triangles = Vec::new();
-    box_faces(&mut triangles, Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0), true, 0);
+    box_faces(
+        &mut triangles,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 3.0, 2.0),
+        true,
+        0,
+    );
     if pillar {
         let mut pillar_faces = Vec::new();
-        box_faces(&mut pillar_faces, Vec3::new(-0.4, 0.0, -0.4), Vec3::new(0.4, 3.0, 0.4), false, 0);
-        triangles.extend(pillar_faces.into_iter().map(|t| Triangle { material: 6, ..t }));
+        box_faces(
+            &mut pillar_faces,
+            Vec3::new(-0.4, 0.0, -0.4),
+            Vec3::new(0.4, 3.0, 0.4),
+            false,
+            0,
+        );
+        triangles.extend(
+            pillar_faces
+                .into_iter()
+                .map(|t| Triangle { material: 6, ..t }),
+        );
     }
     Scene::from_triangles("room", triangles, materials, Vec::new(), Vec::new()).unwrap()
 }
@@ -70,7 +146,10 @@ struct Lcg(u64);
 
 impl Lcg {
     fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         (self.0 >> 40) as f32 / (1u64 << 24) as f32
     }
 
@@ -103,18 +182,30 @@ fn single_probe_sees_a_convex_room() {
     let grid = ProbeGrid::new(Vec3::new(-0.3, 1.2, -0.3), Vec3::splat(0.6), [2, 2, 2]).unwrap();
     let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
     tracer
-        .upload(&bake.field(), &ProbeSelection::Grid(grid), &FieldOptions::default())
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
         .unwrap();
     let mut rng = Lcg(9);
     let rays: Vec<Ray> = (0..2000)
         .map(|_| {
-            let o = Vec3::new(rng.next() * 3.6 - 1.8, 0.2 + rng.next() * 2.6, rng.next() * 3.6 - 1.8);
+            let o = Vec3::new(
+                rng.next() * 3.6 - 1.8,
+                0.2 + rng.next() * 2.6,
+                rng.next() * 3.6 - 1.8,
+            );
             Ray::new(o, rng.direction())
         })
         .collect();
     let trace_rays = to_trace_rays(&rays);
-    let hiz = tracer.trace(&trace_rays, &options(TraceMethod::HiZ)).unwrap();
-    let two = tracer.trace(&trace_rays, &options(TraceMethod::TwoLevel)).unwrap();
+    let hiz = tracer
+        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .unwrap();
+    let two = tracer
+        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .unwrap();
     let a = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
     assert_eq!(a.seen, rays.len());
     assert!(a.seen_rate() >= 0.995, "{a:?}");
@@ -127,10 +218,17 @@ fn single_probe_sees_a_convex_room() {
             same += 1;
         }
     }
-    assert!(same as f64 >= 0.999 * rays.len() as f64, "{same} of {}", rays.len());
+    assert!(
+        same as f64 >= 0.999 * rays.len() as f64,
+        "{same} of {}",
+        rays.len()
+    );
     let f_hiz = TraceSummary::of(&hiz.results).fetches_per_ray;
     let f_two = TraceSummary::of(&two.results).fetches_per_ray;
-    assert!(f_hiz < f_two, "hi-Z {f_hiz} vs two-level {f_two} fetches per ray");
+    assert!(
+        f_hiz < f_two,
+        "hi-Z {f_hiz} vs two-level {f_two} fetches per ray"
+    );
 }
 
 /// A pillar hides part of the room from each probe: rays the first probe cannot finish are
@@ -139,7 +237,12 @@ fn single_probe_sees_a_convex_room() {
 fn hand_off_past_an_occluder() {
     let scene = room(true);
     let shade = albedo_shade(&scene);
-    let grid = ProbeGrid::new(Vec3::new(-1.2, 0.6, -1.2), Vec3::new(2.4, 1.8, 2.4), [2, 2, 2]).unwrap();
+    let grid = ProbeGrid::new(
+        Vec3::new(-1.2, 0.6, -1.2),
+        Vec3::new(2.4, 1.8, 2.4),
+        [2, 2, 2],
+    )
+    .unwrap();
     let positions = grid.positions();
     let bake = mini_capture(&scene, &positions, 64, 100.0, &shade);
     let tets = Tetrahedralization::build(&positions).unwrap();
@@ -157,7 +260,11 @@ fn hand_off_past_an_occluder() {
     let mut rng = Lcg(4);
     let rays: Vec<Ray> = (0..1500)
         .filter_map(|_| {
-            let o = Vec3::new(rng.next() * 3.6 - 1.8, 0.2 + rng.next() * 2.6, rng.next() * 3.6 - 1.8);
+            let o = Vec3::new(
+                rng.next() * 3.6 - 1.8,
+                0.2 + rng.next() * 2.6,
+                rng.next() * 3.6 - 1.8,
+            );
             (o.x.abs() > 0.5 || o.z.abs() > 0.5).then(|| Ray::new(o, rng.direction()))
         })
         .collect();
@@ -181,14 +288,27 @@ fn hand_off_past_an_occluder() {
         // Measured: grid 94.7 %, octree 96.0 %, Voronoi 94.7 % within one footprint; wrong
         // answers 0.5 % or less (the rest are rays left UNKNOWN near the pillar's edges).
         assert!(a.seen_rate() >= 0.92, "{}: {a:?}", selection.name());
-        assert!(a.wrong_answers as f64 <= 0.01 * rays.len() as f64, "{}: {a:?}", selection.name());
+        assert!(
+            a.wrong_answers as f64 <= 0.01 * rays.len() as f64,
+            "{}: {a:?}",
+            selection.name()
+        );
         // Some rays needed more than one probe.
-        assert!(out.results.iter().any(|r| r.probes_tried > 1), "{}", selection.name());
+        assert!(
+            out.results.iter().any(|r| r.probes_tried > 1),
+            "{}",
+            selection.name()
+        );
     }
 }
 
 fn cornell_grid() -> ProbeGrid {
-    ProbeGrid::new(Vec3::new(0.07, 0.07, 0.07), Vec3::new(0.205, 0.2, 0.21), [3, 3, 3]).unwrap()
+    ProbeGrid::new(
+        Vec3::new(0.07, 0.07, 0.07),
+        Vec3::new(0.205, 0.2, 0.21),
+        [3, 3, 3],
+    )
+    .unwrap()
 }
 
 /// The built-in Cornell box, 27 probes at 64², mirror reflection rays from a camera view,
@@ -204,19 +324,30 @@ fn cornell_reflections_against_exact_hits() {
     let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &shade);
     let mut tracer = CpuTracer::new();
     tracer
-        .upload(&bake.field(), &ProbeSelection::Grid(grid), &FieldOptions::default())
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
         .unwrap();
     let rays = reflection_rays(&scene, &camera_rays(&scene, 64, 48));
     let trace_rays = to_trace_rays(&rays);
-    let hiz = tracer.trace(&trace_rays, &options(TraceMethod::HiZ)).unwrap();
-    let two = tracer.trace(&trace_rays, &options(TraceMethod::TwoLevel)).unwrap();
+    let hiz = tracer
+        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .unwrap();
+    let two = tracer
+        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .unwrap();
     let a_hiz = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
     let a_two = accuracy(&scene, &bake, &rays, &two.results, &shade);
     let s_hiz = TraceSummary::of(&hiz.results);
     let s_two = TraceSummary::of(&two.results);
     eprintln!("hi-Z {a_hiz:?} {s_hiz:?}\ntwo-level {a_two:?} {s_two:?}");
     assert!(a_hiz.seen_rate() >= 0.95, "{a_hiz:?}");
-    assert!(a_hiz.wrong_answers as f64 <= 0.02 * rays.len() as f64, "{a_hiz:?}");
+    assert!(
+        a_hiz.wrong_answers as f64 <= 0.02 * rays.len() as f64,
+        "{a_hiz:?}"
+    );
     for (h, t) in hiz.results.iter().zip(&two.results) {
         assert_eq!(h.status, t.status);
         assert!((h.position - t.position).length() <= 1e-5, "{h:?} {t:?}");
@@ -233,7 +364,11 @@ fn rays_into_the_sky_are_misses() {
     let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &shade);
     let mut tracer = CpuTracer::new();
     tracer
-        .upload(&bake.field(), &ProbeSelection::Grid(grid), &FieldOptions::default())
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
         .unwrap();
     // The Cornell box is open towards −z: rays from inside out through the opening escape.
     let rays: Vec<TraceRay> = (0..50)
@@ -249,7 +384,12 @@ fn rays_into_the_sky_are_misses() {
         assert!(r.position.is_finite());
     }
     // A short ray that stops before any surface is a miss too, ending at its t_max.
-    let short = [TraceRay::with_range(Vec3::new(0.28, 0.27, 0.28), Vec3::Y, 0.0, 0.05)];
+    let short = [TraceRay::with_range(
+        Vec3::new(0.28, 0.27, 0.28),
+        Vec3::Y,
+        0.0,
+        0.05,
+    )];
     let out = tracer.trace(&short, &TraceOptions::default()).unwrap();
     assert_eq!(out.results[0].status, RayStatus::Miss);
     assert!((out.results[0].t - 0.05).abs() < 1e-6);

@@ -6,18 +6,34 @@ mod support;
 use glam::{Vec2, Vec3};
 use probe_index::{ProbeGrid, Tetrahedralization};
 use probe_scene::{Ray, Scene};
-use probe_trace_gpu::{CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, TraceError};
+use probe_trace_gpu::{
+    CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, TraceError,
+};
 use support::{LowRes, direct_light_shade, mini_capture};
 
 /// Both interpolations reproduce a field that is linear in the probe position (irradiance maps
 /// constant per probe), anywhere inside the probe set.
 #[test]
 fn interpolation_reproduces_linear_fields() {
-    let grid = ProbeGrid::new(Vec3::new(-1.0, 0.0, 0.5), Vec3::new(0.8, 0.6, 1.1), [4, 3, 3]).unwrap();
+    let grid = ProbeGrid::new(
+        Vec3::new(-1.0, 0.0, 0.5),
+        Vec3::new(0.8, 0.6, 1.1),
+        [4, 3, 3],
+    )
+    .unwrap();
     let positions = grid.positions();
-    let f = |p: Vec3| Vec3::new(1.0 + 0.3 * p.x, 2.0 - 0.2 * p.y + 0.1 * p.z, 0.5 + 0.25 * p.z);
+    let f = |p: Vec3| {
+        Vec3::new(
+            1.0 + 0.3 * p.x,
+            2.0 - 0.2 * p.y + 0.1 * p.z,
+            0.5 + 0.25 * p.z,
+        )
+    };
     let per_probe = (6 + 2) * (6 + 2);
-    let irradiance: Vec<Vec3> = positions.iter().flat_map(|&p| std::iter::repeat_n(f(p), per_probe)).collect();
+    let irradiance: Vec<Vec3> = positions
+        .iter()
+        .flat_map(|&p| std::iter::repeat_n(f(p), per_probe))
+        .collect();
     let moments = vec![Vec2::new(1.0, 1.0); positions.len() * 16 * 16];
     let field = IrradianceField {
         positions: &positions,
@@ -62,7 +78,12 @@ fn interpolation_reproduces_linear_fields() {
 
 /// Irradiance at `x` with normal `n` by BVH: `π ·` the mean of `shade` over cosine-distributed
 /// directions (a stratified 16×16 set).
-fn reference_irradiance(scene: &Scene, shade: &(dyn Fn(&probe_scene::Hit, Vec3) -> Vec3 + Sync), x: Vec3, n: Vec3) -> Vec3 {
+fn reference_irradiance(
+    scene: &Scene,
+    shade: &(dyn Fn(&probe_scene::Hit, Vec3) -> Vec3 + Sync),
+    x: Vec3,
+    n: Vec3,
+) -> Vec3 {
     let t = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
     let u = n.cross(t).normalize();
     let v = n.cross(u);
@@ -110,11 +131,18 @@ fn leak_figures(scene_name: &str) -> LeakFigures {
     let scene = Scene::open(scene_name).unwrap();
     let shade = direct_light_shade(&scene);
     // 6×3×4 probes over both rooms, none inside the 0.2 m wall at x ∈ [-0.1, 0.1].
-    let grid = ProbeGrid::new(Vec3::new(-3.0, 0.5, -1.5), Vec3::new(1.2, 1.0, 1.0), [6, 3, 4]).unwrap();
+    let grid = ProbeGrid::new(
+        Vec3::new(-3.0, 0.5, -1.5),
+        Vec3::new(1.2, 1.0, 1.0),
+        [6, 3, 4],
+    )
+    .unwrap();
     let bake = mini_capture(&scene, &grid.positions(), 16, 100.0, &shade);
     let low = LowRes::of(&bake);
     let mut tracer = CpuTracer::new();
-    tracer.upload_irradiance(&low.field(), &Interpolation::Grid(grid)).unwrap();
+    tracer
+        .upload_irradiance(&low.field(), &Interpolation::Grid(grid))
+        .unwrap();
     let dark = floor_points(0.15, 1.2, -1.8, 0.8);
     let lit = floor_points(-1.2, -0.15, -1.8, 0.8);
     let mean = |v: &[Vec3]| v.iter().map(|e| (e.x + e.y + e.z) / 3.0).sum::<f32>() / v.len() as f32;
@@ -123,12 +151,20 @@ fn leak_figures(scene_name: &str) -> LeakFigures {
             visibility,
             ..DiffuseOptions::default()
         };
-        tracer.shade_diffuse(points, &options).unwrap().results.iter().map(|r| r.irradiance).collect()
+        tracer
+            .shade_diffuse(points, &options)
+            .unwrap()
+            .results
+            .iter()
+            .map(|r| r.irradiance)
+            .collect()
     };
     let reference = |points: &[ShadingPoint]| -> Vec<Vec3> {
         points
             .iter()
-            .map(|p| reference_irradiance(&scene, &shade, Vec3::from(p.position), Vec3::from(p.normal)))
+            .map(|p| {
+                reference_irradiance(&scene, &shade, Vec3::from(p.position), Vec3::from(p.normal))
+            })
             .collect()
     };
     LeakFigures {
@@ -151,10 +187,22 @@ fn visibility_stops_the_leak_through_a_closed_wall() {
         "leak-closed dark floor: irradiance-only {:.4}, visibility {:.4}, reference {:.4}; lit floor: {:.4}, {:.4}, {:.4}",
         f.dark_leaky, f.dark_visible, f.dark_reference, f.lit_leaky, f.lit_visible, f.lit_reference
     );
-    assert!(f.dark_reference < 1e-6, "no light reaches the closed dark room");
-    assert!(f.dark_leaky > 0.05 * f.lit_reference, "the irradiance-only blend leaks");
-    assert!(f.dark_visible < 0.1 * f.dark_leaky, "visibility removes the leak");
-    assert!((f.lit_visible - f.lit_reference).abs() < 0.35 * f.lit_reference, "lit floor keeps its light");
+    assert!(
+        f.dark_reference < 1e-6,
+        "no light reaches the closed dark room"
+    );
+    assert!(
+        f.dark_leaky > 0.05 * f.lit_reference,
+        "the irradiance-only blend leaks"
+    );
+    assert!(
+        f.dark_visible < 0.1 * f.dark_leaky,
+        "visibility removes the leak"
+    );
+    assert!(
+        (f.lit_visible - f.lit_reference).abs() < 0.35 * f.lit_reference,
+        "lit floor keeps its light"
+    );
 }
 
 /// `builtin:leak-gap`: light really comes through the gap; the visibility-aware blend is
@@ -179,7 +227,10 @@ fn diffuse_errors_name_the_problem() {
     let points = [ShadingPoint::new(Vec3::ZERO, Vec3::Y)];
     assert!(matches!(
         tracer.shade_diffuse(&points, &DiffuseOptions::default()),
-        Err(TraceError::NotUploaded { call: "upload_irradiance", .. })
+        Err(TraceError::NotUploaded {
+            call: "upload_irradiance",
+            ..
+        })
     ));
     let positions = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
     let irradiance = vec![Vec3::ONE; 4 * 64];
@@ -192,11 +243,17 @@ fn diffuse_errors_name_the_problem() {
         moments: &moments,
     };
     let tets = Tetrahedralization::build(&positions).unwrap();
-    tracer.upload_irradiance(&field, &Interpolation::Delaunay(&tets)).unwrap();
+    tracer
+        .upload_irradiance(&field, &Interpolation::Delaunay(&tets))
+        .unwrap();
     let bad_point = [ShadingPoint::new(Vec3::ZERO, Vec3::ZERO)];
     assert!(matches!(
         tracer.shade_diffuse(&bad_point, &DiffuseOptions::default()),
-        Err(TraceError::BadInput { item: "shading point", index: 0, .. })
+        Err(TraceError::BadInput {
+            item: "shading point",
+            index: 0,
+            ..
+        })
     ));
     let bad_bias = DiffuseOptions {
         normal_bias: -1.0,
@@ -204,12 +261,17 @@ fn diffuse_errors_name_the_problem() {
     };
     assert!(matches!(
         tracer.shade_diffuse(&points, &bad_bias),
-        Err(TraceError::BadOption { option: "normal_bias", .. })
+        Err(TraceError::BadOption {
+            option: "normal_bias",
+            ..
+        })
     ));
     let short = IrradianceField {
         irradiance: &irradiance[1..],
         ..field
     };
-    let error = tracer.upload_irradiance(&short, &Interpolation::Delaunay(&tets)).unwrap_err();
+    let error = tracer
+        .upload_irradiance(&short, &Interpolation::Delaunay(&tets))
+        .unwrap_err();
     assert!(error.to_string().contains("`irradiance`"), "{error}");
 }

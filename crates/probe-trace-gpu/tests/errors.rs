@@ -18,7 +18,9 @@ struct Field {
 fn field(n: u32, probes: usize) -> Field {
     let len = (n as usize + 2).pow(2);
     Field {
-        positions: (0..probes).map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0)).collect(),
+        positions: (0..probes)
+            .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
+            .collect(),
         distance: vec![1.0; len * probes],
         normals: vec![Vec3::Y; len * probes],
         radiance: vec![Vec3::ONE; len * probes],
@@ -53,7 +55,10 @@ fn upload_errors_name_what_is_wrong() {
     for bad in [0, 4, 12, 8192] {
         let g = field(bad.min(16), 8);
         let e = upload(&light_field(&g, bad), &grid).unwrap_err();
-        assert!(matches!(e, UploadError::Resolution { parameter: "resolution", value, .. } if value == bad), "{e}");
+        assert!(
+            matches!(e, UploadError::Resolution { parameter: "resolution", value, .. } if value == bad),
+            "{e}"
+        );
     }
 
     let short = LightField {
@@ -91,13 +96,19 @@ fn upload_errors_name_what_is_wrong() {
     g.normals[9] = Vec3::new(f32::INFINITY, 0.0, 0.0);
     assert!(matches!(
         upload(&light_field(&g, 16), &grid),
-        Err(UploadError::NonFinite { parameter: "normals", index: 9 })
+        Err(UploadError::NonFinite {
+            parameter: "normals",
+            index: 9
+        })
     ));
     let mut g = field(16, 8);
     g.positions[3] = Vec3::NAN;
     assert!(matches!(
         upload(&light_field(&g, 16), &grid),
-        Err(UploadError::NonFinite { parameter: "positions", index: 3 })
+        Err(UploadError::NonFinite {
+            parameter: "positions",
+            index: 3
+        })
     ));
 
     let sky = LightField {
@@ -106,7 +117,10 @@ fn upload_errors_name_what_is_wrong() {
     };
     assert!(matches!(
         upload(&sky, &grid),
-        Err(UploadError::BadParameter { parameter: "sky_distance", .. })
+        Err(UploadError::BadParameter {
+            parameter: "sky_distance",
+            ..
+        })
     ));
     let e = CpuTracer::new()
         .upload(
@@ -118,10 +132,19 @@ fn upload_errors_name_what_is_wrong() {
             },
         )
         .unwrap_err();
-    assert!(matches!(e, UploadError::BadParameter { parameter: "thickness_scale", .. }));
+    assert!(matches!(
+        e,
+        UploadError::BadParameter {
+            parameter: "thickness_scale",
+            ..
+        }
+    ));
 
     let empty = field(16, 0);
-    assert_eq!(upload(&light_field(&empty, 16), &grid), Err(UploadError::NoProbes));
+    assert_eq!(
+        upload(&light_field(&empty, 16), &grid),
+        Err(UploadError::NoProbes)
+    );
 }
 
 #[test]
@@ -152,7 +175,17 @@ fn selection_must_fit_the_probes() {
         },
     )
     .unwrap_err();
-    assert!(matches!(e, UploadError::ProbeCountMismatch { expected: 8, actual: 9, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            UploadError::ProbeCountMismatch {
+                expected: 8,
+                actual: 9,
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 #[test]
@@ -165,21 +198,50 @@ fn trace_errors_name_the_ray_or_option() {
         Err(TraceError::NotUploaded { call: "upload", .. })
     ));
     tracer
-        .upload(&light_field(&f, 16), &ProbeSelection::Grid(grid_of_8()), &FieldOptions::default())
+        .upload(
+            &light_field(&f, 16),
+            &ProbeSelection::Grid(grid_of_8()),
+            &FieldOptions::default(),
+        )
         .unwrap();
     assert!(tracer.trace(&ok, &TraceOptions::default()).is_ok());
-    assert!(tracer.trace(&[], &TraceOptions::default()).unwrap().results.is_empty());
+    assert!(
+        tracer
+            .trace(&[], &TraceOptions::default())
+            .unwrap()
+            .results
+            .is_empty()
+    );
     let cases = [
-        (TraceRay::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X), "origin"),
+        (
+            TraceRay::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X),
+            "origin",
+        ),
         (TraceRay::new(Vec3::ZERO, Vec3::ZERO), "zero"),
-        (TraceRay::new(Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)), "direction"),
+        (
+            TraceRay::new(Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)),
+            "direction",
+        ),
         (TraceRay::with_range(Vec3::ZERO, Vec3::X, 2.0, 1.0), "range"),
-        (TraceRay::with_range(Vec3::ZERO, Vec3::X, -1.0, 1.0), "range"),
+        (
+            TraceRay::with_range(Vec3::ZERO, Vec3::X, -1.0, 1.0),
+            "range",
+        ),
     ];
     for (bad, word) in cases {
         let rays = [ok[0], ok[0], bad];
         let e = tracer.trace(&rays, &TraceOptions::default()).unwrap_err();
-        assert!(matches!(e, TraceError::BadInput { item: "ray", index: 2, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                TraceError::BadInput {
+                    item: "ray",
+                    index: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
         assert!(e.to_string().contains(word), "{e}");
     }
     for (options, name) in [
@@ -199,6 +261,9 @@ fn trace_errors_name_the_ray_or_option() {
         ),
     ] {
         let e = tracer.trace(&ok, &options).unwrap_err();
-        assert!(matches!(e, TraceError::BadOption { option, .. } if option == name), "{e}");
+        assert!(
+            matches!(e, TraceError::BadOption { option, .. } if option == name),
+            "{e}"
+        );
     }
 }

@@ -9,7 +9,12 @@ use crate::ray::{DiffuseResult, ShadingPoint};
 
 /// Bilinear sample of a padded octahedral map at `direction`, exactly as
 /// `probe_octa::OctaMap::sample` computes it (4 fetches).
-fn sample_bilinear<const K: usize>(texels: &[[f32; K]], resolution: u32, probe: u32, direction: Vec3) -> [f32; K] {
+fn sample_bilinear<const K: usize>(
+    texels: &[[f32; K]],
+    resolution: u32,
+    probe: u32,
+    direction: Vec3,
+) -> [f32; K] {
     let n = resolution as f32;
     let o = probe_octa::encode(direction).clamp(Vec2::NEG_ONE, Vec2::ONE);
     let c = Vec2::ONE + (o + Vec2::ONE) * (0.5 * n) - Vec2::splat(0.5);
@@ -93,7 +98,11 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
 }
 
 /// Shades one point.
-pub(super) fn shade(ir: &PackedIrradiance, params: &DiffuseParams, point: &ShadingPoint) -> DiffuseResult {
+pub(super) fn shade(
+    ir: &PackedIrradiance,
+    params: &DiffuseParams,
+    point: &ShadingPoint,
+) -> DiffuseResult {
     let x = Vec3::from(point.position);
     let n = Vec3::from(point.normal);
     let (probes, w) = weights(ir, params, x);
@@ -114,7 +123,12 @@ pub(super) fn shade(ir: &PackedIrradiance, params: &DiffuseParams, point: &Shadi
             let visibility = probe_octa::chebyshev_visibility(Vec2::from(m), distance);
             weight *= visibility * visibility * visibility;
         }
-        let e = Vec3::from(sample_bilinear(irradiance, params.irradiance_resolution, probe, n));
+        let e = Vec3::from(sample_bilinear(
+            irradiance,
+            params.irradiance_resolution,
+            probe,
+            n,
+        ));
         sum += e * weight;
         weight_sum += weight;
     }

@@ -68,6 +68,8 @@ pub(crate) struct ProbeRay<'a> {
     pub origin: Vec3,
     /// Unit direction.
     pub direction: Vec3,
+    /// The ray's own `t_min`: a ray cannot hit a plane it starts behind.
+    pub t_min: f32,
     /// Texel fetches so far.
     pub fetches: u32,
 }
@@ -97,7 +99,14 @@ fn encode_in_octant(p: Vec3, signs: Vec3) -> Vec2 {
 /// Endpoint of a piece: octahedral point and L1 weight of the ray at `t`, as the limit from
 /// inside the piece (`vanishing`: axes whose plane the ray crosses exactly at `t`).
 #[inline]
-fn endpoint(o: Vec3, d: Vec3, t: f32, vanishing: u32, signs: Vec3, starts_here: bool) -> (Vec2, f32) {
+fn endpoint(
+    o: Vec3,
+    d: Vec3,
+    t: f32,
+    vanishing: u32,
+    signs: Vec3,
+    starts_here: bool,
+) -> (Vec2, f32) {
     let mut p = o + d * t;
     if vanishing & 1 != 0 {
         p.x = 0.0;
@@ -119,7 +128,13 @@ fn endpoint(o: Vec3, d: Vec3, t: f32, vanishing: u32, signs: Vec3, starts_here: 
 
 /// Splits `o + t·d`, `t ∈ [t_min, t_max]` (finite, ordered), at the probe's planes x, y, z = 0
 /// into at most four pieces (the algorithm of `probe_octa::split_ray`).
-pub(crate) fn split_segments(o: Vec3, d: Vec3, t_min: f32, t_max: f32, out: &mut [Segment; 4]) -> usize {
+pub(crate) fn split_segments(
+    o: Vec3,
+    d: Vec3,
+    t_min: f32,
+    t_max: f32,
+    out: &mut [Segment; 4],
+) -> usize {
     let mut cut_t = [0.0f32; 3];
     let mut cut_mask = [0u32; 3];
     let mut count = 0usize;
@@ -161,7 +176,11 @@ pub(crate) fn split_segments(o: Vec3, d: Vec3, t_min: f32, t_max: f32, out: &mut
     for i in 0..pieces {
         let (t0, t1) = (bound_t[i], bound_t[i + 1]);
         let mid = o + d * (0.5 * t0 + 0.5 * t1);
-        let signs = Vec3::new(sign_not_zero(mid.x), sign_not_zero(mid.y), sign_not_zero(mid.z));
+        let signs = Vec3::new(
+            sign_not_zero(mid.x),
+            sign_not_zero(mid.y),
+            sign_not_zero(mid.z),
+        );
         let (q0, l0) = endpoint(o, d, t0, bound_mask[i], signs, true);
         let (q1, l1) = endpoint(o, d, t1, bound_mask[i + 1], signs, false);
         out[i] = Segment {
@@ -246,9 +265,19 @@ fn advance_axis(i: u32, level: u32, crossed: bool, c: f32, dc: f32) -> i32 {
 /// `cell` of `level` at σ = `exit` (through x if `sx <= exit`, y if `sy <= exit`). Along a
 /// crossed axis the new index is exact (the first column or row of the next cell); along the
 /// other it comes from the line's position, kept inside `cell`. `false` if the line left the
-/// map.
+/// map. (Eight plain arguments, as the WGSL twin takes them.)
+#[allow(clippy::too_many_arguments)]
 #[inline]
-fn advance(cursor: &mut UVec2, cell: UVec2, level: u32, (sx, sy): (f32, f32), exit: f32, c0: Vec2, delta: Vec2, resolution: u32) -> bool {
+fn advance(
+    cursor: &mut UVec2,
+    cell: UVec2,
+    level: u32,
+    (sx, sy): (f32, f32),
+    exit: f32,
+    c0: Vec2,
+    delta: Vec2,
+    resolution: u32,
+) -> bool {
     let at = c0 + delta * exit;
     let x = advance_axis(cell.x, level, sx <= exit, at.x, delta.x);
     let y = advance_axis(cell.y, level, sy <= exit, at.y, delta.y);
@@ -285,7 +314,7 @@ impl ProbeRay<'_> {
     /// edge cannot place the ray (UNKNOWN); otherwise the texel's plane decides: entering
     /// behind it by more than the thickness is hidden, staying in front passes, moving out of
     /// the thickness layer passes (a ray leaving the surface it starts on), and crossing into
-    /// it is a hit, unless the texel has a farther edge (the crossing may lie beside the edge:
+    /// it is a hit (unless the ray starts behind it), unless the texel has a farther edge (the crossing may lie beside the edge:
     /// UNKNOWN) or the surface faces away from the ray (back-face rejection, UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
@@ -328,12 +357,15 @@ impl ProbeRay<'_> {
         if sa >= 0.0 && sb >= 0.0 {
             return Outcome::CONTINUE;
         }
-        if k >= 0.0 {
+        if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
             // Within the thickness behind the plane and moving out of it: the ray leaves the
-            // surface it starts on.
+            // surface it starts on. Or the ray starts behind this plane (on a neighbouring
+            // face at a convex edge): it cannot hit the plane from behind.
             return Outcome::CONTINUE;
         }
-        if farther_edge || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0) {
+        if farther_edge
+            || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0)
+        {
             return Outcome::unknown(ta);
         }
         let t = if sa <= 0.0 { ta } else { (ta - sa / k).min(tb) };
@@ -473,7 +505,9 @@ mod tests {
     fn split_matches_probe_octa() {
         let mut state = 12345u64;
         let mut next = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
         };
         let mut out = [Segment::default(); 4];
@@ -487,8 +521,18 @@ mod tests {
             for (a, b) in out[..count].iter().zip(reference.iter()) {
                 assert_eq!(a.t0, b.t_start);
                 assert_eq!(a.t1, b.t_end);
-                assert!(a.q0.abs_diff_eq(b.octa_start, 1e-6), "{} {}", a.q0, b.octa_start);
-                assert!(a.q1.abs_diff_eq(b.octa_end, 1e-6), "{} {}", a.q1, b.octa_end);
+                assert!(
+                    a.q0.abs_diff_eq(b.octa_start, 1e-6),
+                    "{} {}",
+                    a.q0,
+                    b.octa_start
+                );
+                assert!(
+                    a.q1.abs_diff_eq(b.octa_end, 1e-6),
+                    "{} {}",
+                    a.q1,
+                    b.octa_end
+                );
             }
         }
     }

@@ -91,7 +91,11 @@ impl CpuTracer {
     /// # Errors
     /// [`TraceError::NotUploaded`] before [`Self::upload`]; [`TraceError::BadInput`] for a bad
     /// ray; [`TraceError::BadOption`] for bad options.
-    pub fn trace(&self, rays: &[TraceRay], options: &TraceOptions) -> Result<TraceOutput, TraceError> {
+    pub fn trace(
+        &self,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
         let start = Instant::now();
         let (Some(field), Some(selection)) = (&self.field, &self.selection) else {
             return Err(TraceError::NotUploaded {
@@ -142,7 +146,10 @@ impl CpuTracer {
 }
 
 /// Maps `f` over `items` on all available threads, keeping order.
-fn parallel_map<T: Sync, U: Send + Default + Clone>(items: &[T], f: impl Fn(&T) -> U + Sync) -> Vec<U> {
+fn parallel_map<T: Sync, U: Send + Default + Clone>(
+    items: &[T],
+    f: impl Fn(&T) -> U + Sync,
+) -> Vec<U> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = vec![U::default(); items.len()];
     if threads <= 1 || items.len() < 256 {
@@ -214,6 +221,7 @@ fn trace_probe(
         probe,
         origin,
         direction,
+        t_min: ray.t_min,
         fetches: 0,
     };
     for segment in &segments[..count] {
@@ -236,7 +244,11 @@ fn trace_probe(
 /// Radiance of interior texel `cell` of `probe` (one fetch).
 fn radiance(field: &PackedField, probe: u32, cell: UVec2) -> [f32; 3] {
     let i = 3 * padded_index(field.resolution, probe, cell.x, cell.y);
-    [field.radiance[i], field.radiance[i + 1], field.radiance[i + 2]]
+    [
+        field.radiance[i],
+        field.radiance[i + 1],
+        field.radiance[i + 2],
+    ]
 }
 
 /// The interior texel holding `direction`.

@@ -30,6 +30,7 @@ impl Candidates {
     }
 
     /// The candidates.
+    #[cfg(test)]
     pub fn as_slice(&self) -> &[u32] {
         &self.probes[..self.len as usize]
     }
@@ -239,7 +240,10 @@ mod tests {
 
     impl Lcg {
         fn next(&mut self) -> f32 {
-            self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (self.0 >> 40) as f32 / (1u64 << 24) as f32
         }
 
@@ -269,7 +273,13 @@ mod tests {
 
     /// Checks the packed selector against the reference on random queries, at the start of a
     /// ray and after a failure (of a probe in the list, and of one elsewhere).
-    fn check(reference: &dyn ProbeSelector, selection: &ProbeSelection<'_>, positions: &[Vec3], lo: Vec3, hi: Vec3) {
+    fn check(
+        reference: &dyn ProbeSelector,
+        selection: &ProbeSelection<'_>,
+        positions: &[Vec3],
+        lo: Vec3,
+        hi: Vec3,
+    ) {
         let packed = PackedSelection::new(selection, positions.len()).unwrap();
         let params = params_of(&packed);
         let padded: Vec<[f32; 4]> = positions.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect();
@@ -294,7 +304,11 @@ mod tests {
                 failed_probe: None,
             });
             let got = ours.select(position, direction, NO_PROBE);
-            assert_eq!(got.as_slice(), start.as_slice(), "at {position} along {direction}");
+            assert_eq!(
+                got.as_slice(),
+                start.as_slice(),
+                "at {position} along {direction}"
+            );
             let failed = match start.as_slice().first() {
                 Some(&p) if i % 2 == 0 => p,
                 _ => (rng.next() * positions.len() as f32) as u32 % positions.len() as u32,
@@ -305,22 +319,39 @@ mod tests {
                 failed_probe: Some(failed),
             });
             let got = ours.select(position, direction, failed);
-            assert_eq!(got.as_slice(), after.as_slice(), "after {failed} failed at {position}");
+            assert_eq!(
+                got.as_slice(),
+                after.as_slice(),
+                "after {failed} failed at {position}"
+            );
         }
     }
 
     #[test]
     fn grid_selection_matches_probe_index() {
-        let grid = ProbeGrid::new(Vec3::new(-1.0, 0.2, 0.5), Vec3::new(0.7, 1.1, 0.45), [4, 3, 5]).unwrap();
+        let grid = ProbeGrid::new(
+            Vec3::new(-1.0, 0.2, 0.5),
+            Vec3::new(0.7, 1.1, 0.45),
+            [4, 3, 5],
+        )
+        .unwrap();
         let positions = grid.positions();
         let hi = grid.probe_position(grid.probe_count() as u32 - 1);
-        check(&grid, &ProbeSelection::Grid(grid), &positions, Vec3::new(-1.0, 0.2, 0.5), hi);
+        check(
+            &grid,
+            &ProbeSelection::Grid(grid),
+            &positions,
+            Vec3::new(-1.0, 0.2, 0.5),
+            hi,
+        );
     }
 
     #[test]
     fn voronoi_selection_matches_probe_index() {
         let mut rng = Lcg(5);
-        let positions: Vec<Vec3> = (0..60).map(|_| rng.point(Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0))).collect();
+        let positions: Vec<Vec3> = (0..60)
+            .map(|_| rng.point(Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0)))
+            .collect();
         let tets = Tetrahedralization::build(&positions).unwrap();
         let neighbours = VoronoiNeighbours::bake(&tets, 8).unwrap();
         let nearest = NearestProbe::new(&positions);
@@ -333,7 +364,13 @@ mod tests {
             nearest: &nearest,
             neighbours: &neighbours,
         };
-        check(&reference, &selection, &positions, Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0));
+        check(
+            &reference,
+            &selection,
+            &positions,
+            Vec3::ZERO,
+            Vec3::new(4.0, 2.0, 3.0),
+        );
     }
 
     /// Triangles of axis-aligned boxes, brute-force ray casting.
@@ -350,7 +387,14 @@ mod tests {
                         if i & 4 == 0 { lo.z } else { hi.z },
                     )
                 };
-                for [a, b, cc, d] in [[0, 1, 3, 2], [4, 5, 7, 6], [0, 1, 5, 4], [2, 3, 7, 6], [0, 2, 6, 4], [1, 3, 7, 5]] {
+                for [a, b, cc, d] in [
+                    [0, 1, 3, 2],
+                    [4, 5, 7, 6],
+                    [0, 1, 5, 4],
+                    [2, 3, 7, 6],
+                    [0, 2, 6, 4],
+                    [1, 3, 7, 5],
+                ] {
                     tris.push([c(a), c(b), c(cc)]);
                     tris.push([c(a), c(cc), c(d)]);
                 }
@@ -382,7 +426,13 @@ mod tests {
                 let q = s.cross(e1);
                 let v = direction.dot(q) / det;
                 let t = e2.dot(q) / det;
-                if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t <= max_distance && best.is_none_or(|h| t < h.distance) {
+                if u >= 0.0
+                    && v >= 0.0
+                    && u + v <= 1.0
+                    && t > 0.0
+                    && t <= max_distance
+                    && best.is_none_or(|h| t < h.distance)
+                {
                     best = Some(RayHit {
                         distance: t,
                         normal: e1.cross(e2).normalize(),
@@ -399,7 +449,12 @@ mod tests {
             (Vec3::ZERO, Vec3::new(4.0, 0.1, 4.0)),
             (Vec3::new(1.5, 0.0, 1.5), Vec3::new(2.5, 2.0, 2.5)),
         ]);
-        let grid = ProbeGrid::new(Vec3::new(0.5, 0.5, 0.5), Vec3::new(1.5, 1.0, 1.5), [3, 2, 3]).unwrap();
+        let grid = ProbeGrid::new(
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(1.5, 1.0, 1.5),
+            [3, 2, 3],
+        )
+        .unwrap();
         let positions = grid.positions();
         let svo = SparseVoxelOctree::build(
             &geometry,
@@ -410,6 +465,12 @@ mod tests {
             },
         )
         .unwrap();
-        check(&svo, &ProbeSelection::SparseVoxelOctree(&svo), &positions, Vec3::ZERO, Vec3::new(4.0, 2.0, 4.0));
+        check(
+            &svo,
+            &ProbeSelection::SparseVoxelOctree(&svo),
+            &positions,
+            Vec3::ZERO,
+            Vec3::new(4.0, 2.0, 4.0),
+        );
     }
 }

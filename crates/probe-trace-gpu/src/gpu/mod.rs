@@ -20,7 +20,8 @@ use crate::ray::{
 };
 
 /// The trace shader: `common.wgsl` followed by `trace.wgsl`.
-pub(crate) const TRACE_WGSL: &str = concat!(include_str!("common.wgsl"), include_str!("trace.wgsl"));
+pub(crate) const TRACE_WGSL: &str =
+    concat!(include_str!("common.wgsl"), include_str!("trace.wgsl"));
 /// The diffuse shader: `common.wgsl` followed by `diffuse.wgsl`.
 pub(crate) const DIFFUSE_WGSL: &str =
     concat!(include_str!("common.wgsl"), include_str!("diffuse.wgsl"));
@@ -227,7 +228,11 @@ fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
 
 /// Builds a pipeline over `[uniform, input, output, extra read-only storage…]`.
 fn make_pass(device: &wgpu::Device, label: &str, source: &str, entry: &str, extra: u32) -> Pass {
-    let mut entries = vec![uniform_entry(0), storage_entry(1, true), storage_entry(2, false)];
+    let mut entries = vec![
+        uniform_entry(0),
+        storage_entry(1, true),
+        storage_entry(2, false),
+    ];
     entries.extend((0..extra).map(|i| storage_entry(3 + i, true)));
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
@@ -281,7 +286,9 @@ impl GpuTracer {
             )));
         }
         if limits.max_compute_invocations_per_workgroup < WORKGROUP {
-            return Err(unsupported("it cannot run 64-thread compute workgroups".to_owned()));
+            return Err(unsupported(
+                "it cannot run 64-thread compute workgroups".to_owned(),
+            ));
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let trace_pass = make_pass(&device, "probe trace", TRACE_WGSL, "trace_main", 5);
@@ -334,7 +341,11 @@ impl GpuTracer {
     }
 
     /// A read-only storage buffer holding `data`, checked against the device's limits.
-    fn storage_buffer(&self, label: &'static str, data: &[u8]) -> Result<wgpu::Buffer, UploadError> {
+    fn storage_buffer(
+        &self,
+        label: &'static str,
+        data: &[u8],
+    ) -> Result<wgpu::Buffer, UploadError> {
         let bytes = data.len() as u64;
         let limit = self
             .limits
@@ -347,11 +358,13 @@ impl GpuTracer {
                 limit,
             });
         }
-        Ok(self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents: data,
-            usage: wgpu::BufferUsages::STORAGE,
-        }))
+        Ok(self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: data,
+                usage: wgpu::BufferUsages::STORAGE,
+            }))
     }
 
     /// Checks a light field and its selection and uploads them (replacing any earlier one).
@@ -404,8 +417,12 @@ impl GpuTracer {
         interpolation: &Interpolation<'_>,
     ) -> Result<(), UploadError> {
         let mut meta = PackedIrradiance::new(field, interpolation)?;
-        let positions = self.storage_buffer("irradiance positions", bytemuck::cast_slice(&meta.positions))?;
-        let irradiance = self.storage_buffer("irradiance", bytemuck::cast_slice(&meta.irradiance))?;
+        let positions = self.storage_buffer(
+            "irradiance positions",
+            bytemuck::cast_slice(&meta.positions),
+        )?;
+        let irradiance =
+            self.storage_buffer("irradiance", bytemuck::cast_slice(&meta.irradiance))?;
         let moments = self.storage_buffer("moments", bytemuck::cast_slice(&meta.moments))?;
         let words = self.storage_buffer("interpolation", bytemuck::cast_slice(&meta.words))?;
         meta.irradiance = Vec::new();
@@ -437,7 +454,11 @@ impl GpuTracer {
     /// [`TraceError::NotUploaded`] before [`Self::upload`]; [`TraceError::BadInput`] for a bad
     /// ray; [`TraceError::BadOption`] for bad options; [`TraceError::Device`] if the device
     /// fails.
-    pub fn trace(&mut self, rays: &[TraceRay], options: &TraceOptions) -> Result<TraceOutput, TraceError> {
+    pub fn trace(
+        &mut self,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
         let start = Instant::now();
         let Some(field) = &self.field else {
             return Err(TraceError::NotUploaded {
@@ -449,26 +470,32 @@ impl GpuTracer {
         let rays = prepare_rays(rays)?;
         let chunk = self.chunk_limit(size_of::<TraceRay>(), size_of::<RayRecord>());
         let items = rays.len().min(chunk);
-        if ensure_io::<TraceRay, RayRecord, TraceParams>(&self.device, &mut self.trace_io, items, "trace") {
+        if ensure_io::<TraceRay, RayRecord, TraceParams>(
+            &self.device,
+            &mut self.trace_io,
+            items,
+            "trace",
+        ) {
             self.trace_bind_group = None;
         }
         if self.trace_bind_group.is_none() {
             let field = self.field.as_ref().expect("checked above");
             let io = self.trace_io.as_ref().expect("ensured above");
-            self.trace_bind_group = Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("probe trace"),
-                layout: &self.trace_pass.layout,
-                entries: &bind_entries(&[
-                    &io.uniform,
-                    &io.input,
-                    &io.output,
-                    &field.positions,
-                    &field.geometry,
-                    &field.pyramid,
-                    &field.radiance,
-                    &field.words,
-                ]),
-            }));
+            self.trace_bind_group =
+                Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("probe trace"),
+                    layout: &self.trace_pass.layout,
+                    entries: &bind_entries(&[
+                        &io.uniform,
+                        &io.input,
+                        &io.output,
+                        &field.positions,
+                        &field.geometry,
+                        &field.pyramid,
+                        &field.radiance,
+                        &field.words,
+                    ]),
+                }));
         }
         let mut results = Vec::with_capacity(rays.len());
         let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
@@ -518,26 +545,31 @@ impl GpuTracer {
         let points = prepare_points(points)?;
         let chunk = self.chunk_limit(size_of::<ShadingPoint>(), 16);
         let items = points.len().min(chunk);
-        if ensure_io::<ShadingPoint, [f32; 4], DiffuseParams>(&self.device, &mut self.diffuse_io, items, "diffuse")
-        {
+        if ensure_io::<ShadingPoint, [f32; 4], DiffuseParams>(
+            &self.device,
+            &mut self.diffuse_io,
+            items,
+            "diffuse",
+        ) {
             self.diffuse_bind_group = None;
         }
         if self.diffuse_bind_group.is_none() {
             let ir = self.irradiance.as_ref().expect("checked above");
             let io = self.diffuse_io.as_ref().expect("ensured above");
-            self.diffuse_bind_group = Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("probe diffuse"),
-                layout: &self.diffuse_pass.layout,
-                entries: &bind_entries(&[
-                    &io.uniform,
-                    &io.input,
-                    &io.output,
-                    &ir.positions,
-                    &ir.irradiance,
-                    &ir.moments,
-                    &ir.words,
-                ]),
-            }));
+            self.diffuse_bind_group =
+                Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("probe diffuse"),
+                    layout: &self.diffuse_pass.layout,
+                    entries: &bind_entries(&[
+                        &io.uniform,
+                        &io.input,
+                        &io.output,
+                        &ir.positions,
+                        &ir.irradiance,
+                        &ir.moments,
+                        &ir.words,
+                    ]),
+                }));
         }
         let mut results = Vec::with_capacity(points.len());
         let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
@@ -587,9 +619,17 @@ impl GpuTracer {
         groups: (u32, u32),
     ) -> Result<(Vec<Out>, Option<Duration>), TraceError> {
         let (pass, io, bind_group) = if trace {
-            (&self.trace_pass, self.trace_io.as_ref(), self.trace_bind_group.as_ref())
+            (
+                &self.trace_pass,
+                self.trace_io.as_ref(),
+                self.trace_bind_group.as_ref(),
+            )
         } else {
-            (&self.diffuse_pass, self.diffuse_io.as_ref(), self.diffuse_bind_group.as_ref())
+            (
+                &self.diffuse_pass,
+                self.diffuse_io.as_ref(),
+                self.diffuse_bind_group.as_ref(),
+            )
         };
         let (Some(io), Some(bind_group)) = (io, bind_group) else {
             unreachable!("buffers and bind group are made before dispatching");
@@ -597,18 +637,23 @@ impl GpuTracer {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory_scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         self.queue.write_buffer(&io.uniform, 0, uniform);
-        self.queue.write_buffer(&io.input, 0, bytemuck::cast_slice(items));
+        self.queue
+            .write_buffer(&io.input, 0, bytemuck::cast_slice(items));
         let out_bytes = (items.len() * size_of::<Out>()) as u64;
         let mut encoder = self
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("probe pass") });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("probe pass"),
+            });
         {
             let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("probe pass"),
-                timestamp_writes: self.timestamps.as_ref().map(|t| wgpu::ComputePassTimestampWrites {
-                    query_set: &t.set,
-                    beginning_of_pass_write_index: Some(0),
-                    end_of_pass_write_index: Some(1),
+                timestamp_writes: self.timestamps.as_ref().map(|t| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set: &t.set,
+                        beginning_of_pass_write_index: Some(0),
+                        end_of_pass_write_index: Some(1),
+                    }
                 }),
             });
             cpass.set_pipeline(&pass.pipeline);
@@ -626,7 +671,9 @@ impl GpuTracer {
             Some(t) => {
                 let stamps: Vec<u64> = read_back(&self.device, &t.readback, 16)?;
                 let ticks = stamps[1].saturating_sub(stamps[0]);
-                Some(Duration::from_nanos((ticks as f64 * f64::from(t.period_ns)) as u64))
+                Some(Duration::from_nanos(
+                    (ticks as f64 * f64::from(t.period_ns)) as u64,
+                ))
             }
             None => None,
         };
@@ -667,7 +714,9 @@ fn ensure_io<In: Pod, Out: Pod, U: Pod>(
         return false;
     }
     // Grow geometrically so that slowly growing calls do not reallocate every time.
-    let capacity = items.max(io.as_ref().map_or(0, |io| io.capacity * 2).min(MAX_CHUNK)).max(64);
+    let capacity = items
+        .max(io.as_ref().map_or(0, |io| io.capacity * 2).min(MAX_CHUNK))
+        .max(64);
     let buffer = |what: &str, size: usize, usage: wgpu::BufferUsages| {
         device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(&format!("probe {label} {what}")),
@@ -703,7 +752,11 @@ fn ensure_io<In: Pod, Out: Pod, U: Pod>(
 }
 
 /// Maps the first `bytes` of `buffer`, waits, and copies them out.
-fn read_back<T: Pod + Zeroable>(device: &wgpu::Device, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>, TraceError> {
+fn read_back<T: Pod + Zeroable>(
+    device: &wgpu::Device,
+    buffer: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<T>, TraceError> {
     let slice = buffer.slice(0..bytes);
     let (sender, receiver) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |result| {

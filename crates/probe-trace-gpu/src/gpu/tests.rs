@@ -21,7 +21,11 @@ fn shaders_pass_naga_validation() {
         Validator::new(ValidationFlags::all(), Capabilities::default())
             .validate(&module)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
-        let entry = if name == "trace" { "trace_main" } else { "diffuse_main" };
+        let entry = if name == "trace" {
+            "trace_main"
+        } else {
+            "diffuse_main"
+        };
         assert!(
             module.entry_points.iter().any(|e| e.name == entry),
             "{name} lacks `{entry}`"
@@ -34,15 +38,15 @@ fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
     for (handle, ty) in module.types.iter() {
-        if ty.name.as_deref() == Some(name) {
-            if let naga::TypeInner::Struct { members, span } = &ty.inner {
-                assert_eq!(*span, layouter[handle].size);
-                let offsets = members
-                    .iter()
-                    .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
-                    .collect();
-                return (*span, offsets);
-            }
+        if ty.name.as_deref() == Some(name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            assert_eq!(*span, layouter[handle].size);
+            let offsets = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect();
+            return (*span, offsets);
         }
     }
     panic!("no struct `{name}` in the shader");
@@ -124,7 +128,10 @@ fn shared_structs_match_the_wgsl_layout() {
             ("coarse_level", offset_of!(TraceParams, coarse_level)),
             ("max_probes", offset_of!(TraceParams, max_probes)),
             ("selector", offset_of!(TraceParams, selector)),
-            ("back_face_rejection", offset_of!(TraceParams, back_face_rejection)),
+            (
+                "back_face_rejection",
+                offset_of!(TraceParams, back_face_rejection),
+            ),
             ("level_count", offset_of!(TraceParams, level_count)),
             ("max_steps", offset_of!(TraceParams, max_steps)),
             ("sky_distance", offset_of!(TraceParams, sky_distance)),
@@ -137,7 +144,10 @@ fn shared_structs_match_the_wgsl_layout() {
             ("kd_nodes", offset_of!(TraceParams, kd_nodes)),
             ("kd_count", offset_of!(TraceParams, kd_count)),
             ("neighbour_table", offset_of!(TraceParams, neighbour_table)),
-            ("neighbour_resolution", offset_of!(TraceParams, neighbour_resolution)),
+            (
+                "neighbour_resolution",
+                offset_of!(TraceParams, neighbour_resolution),
+            ),
         ],
     );
     let diffuse = parse("diffuse", DIFFUSE_WGSL);
@@ -156,11 +166,20 @@ fn shared_structs_match_the_wgsl_layout() {
         size_of::<DiffuseParams>(),
         &[
             ("point_count", offset_of!(DiffuseParams, point_count)),
-            ("threads_per_row", offset_of!(DiffuseParams, threads_per_row)),
+            (
+                "threads_per_row",
+                offset_of!(DiffuseParams, threads_per_row),
+            ),
             ("probe_count", offset_of!(DiffuseParams, probe_count)),
             ("interpolation", offset_of!(DiffuseParams, interpolation)),
-            ("irradiance_resolution", offset_of!(DiffuseParams, irradiance_resolution)),
-            ("moments_resolution", offset_of!(DiffuseParams, moments_resolution)),
+            (
+                "irradiance_resolution",
+                offset_of!(DiffuseParams, irradiance_resolution),
+            ),
+            (
+                "moments_resolution",
+                offset_of!(DiffuseParams, moments_resolution),
+            ),
             ("visibility", offset_of!(DiffuseParams, visibility)),
             ("max_walk_steps", offset_of!(DiffuseParams, max_walk_steps)),
             ("normal_bias", offset_of!(DiffuseParams, normal_bias)),

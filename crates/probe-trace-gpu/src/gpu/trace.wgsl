@@ -94,6 +94,7 @@ struct RayRecord {
 var<private> cur_probe: u32;
 var<private> ray_o: vec3<f32>;
 var<private> ray_d: vec3<f32>;
+var<private> ray_t_min: f32;
 var<private> fetches: u32;
 
 struct Segment {
@@ -347,7 +348,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     if (sa >= 0.0 && sb >= 0.0) {
         return outcome_continue();
     }
-    if (k >= 0.0) {
+    if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
         return outcome_continue();
     }
     if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
@@ -493,6 +494,7 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32) -> ProbeAnswer {
     cur_probe = probe;
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
+    ray_t_min = ray.t_min;
     let sky = params.sky_distance * 0.999;
     let b = dot(ray_o, ray_d);
     let closest = ray_o - ray_d * b;

@@ -39,14 +39,20 @@ impl Bake {
     /// The padded maps of one probe.
     pub fn distance_map(&self, probe: usize) -> OctaMap<f32> {
         let len = OctaLayout::new(self.resolution).unwrap().padded_len();
-        OctaMap::from_padded(self.resolution, self.distance[probe * len..(probe + 1) * len].to_vec())
-            .unwrap()
+        OctaMap::from_padded(
+            self.resolution,
+            self.distance[probe * len..(probe + 1) * len].to_vec(),
+        )
+        .unwrap()
     }
 
     pub fn radiance_map(&self, probe: usize) -> OctaMap<Vec3> {
         let len = OctaLayout::new(self.resolution).unwrap().padded_len();
-        OctaMap::from_padded(self.resolution, self.radiance[probe * len..(probe + 1) * len].to_vec())
-            .unwrap()
+        OctaMap::from_padded(
+            self.resolution,
+            self.radiance[probe * len..(probe + 1) * len].to_vec(),
+        )
+        .unwrap()
     }
 }
 
@@ -179,8 +185,9 @@ impl LowRes {
                 let radiance = bake.radiance_map(p);
                 let distance = bake.distance_map(p);
                 let e = probe_octa::irradiance_map(&radiance, 6).unwrap();
-                let m = probe_octa::distance_moments(&distance, 14, probe_octa::default_sharpness(14))
-                    .unwrap();
+                let m =
+                    probe_octa::distance_moments(&distance, 14, probe_octa::default_sharpness(14))
+                        .unwrap();
                 (e.texels().to_vec(), m.texels().to_vec())
             })
             .collect();
@@ -273,8 +280,9 @@ pub struct Accuracy {
     pub true_hits: usize,
     /// Of those, hits some probe sees (unoccluded, at more than 0.1 cosine).
     pub seen: usize,
-    /// Of those, answered Hit within one texel footprint of the true hit.
+    /// Of those, answered Hit within one texel footprint of the true hit / within two.
     pub seen_correct: usize,
+    pub seen_correct_2: usize,
     /// Rays with a true hit answered Hit within one footprint / within two.
     pub hits_correct: usize,
     pub hits_correct_2: usize,
@@ -383,6 +391,7 @@ pub fn accuracy(
             a.true_hits += 1;
             a.seen += usize::from(seen);
             a.seen_correct += usize::from(seen && correct);
+            a.seen_correct_2 += usize::from(seen && correct_2);
             a.hits_correct += usize::from(correct);
             a.hits_correct_2 += usize::from(correct_2);
         } else {
