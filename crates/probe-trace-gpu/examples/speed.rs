@@ -100,7 +100,7 @@ fn main() {
     cpu.upload(&bake.field(), &selection, &FieldOptions::default())
         .unwrap();
 
-    // Warm up: the first dispatch compiles the pipeline (seconds on lavapipe).
+    // Warm up: the first dispatch compiles the pipeline on lavapipe.
     for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
         gpu.trace(&rays[..4096.min(rays.len())], &options(method))
             .unwrap();
