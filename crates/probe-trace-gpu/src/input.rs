@@ -47,7 +47,7 @@ pub struct FieldOptions {
     /// sample one surface, and a thin foreground can hide in a background texel; then a ray
     /// passing just beside gets a wrong answer. The conservative policy trades those wrong
     /// answers for rays left UNKNOWN: on the Cornell box at 64² wrong answers fall from 2.3 % to
-    /// 0.3 % of rays while UNKNOWN rises from 0.3 % to 18 % (see `BENCHMARKS.md`). Default false.
+    /// 0.2 % of rays while UNKNOWN rises from 0.4 % to 18 % (see `BENCHMARKS.md`). Default false.
     pub conservative_edges: bool,
 }
 

@@ -929,7 +929,9 @@ pub(crate) fn diffuse_params(
         irradiance_resolution: irradiance.irradiance_resolution,
         moments_resolution: irradiance.moments_resolution,
         visibility: u32::from(options.visibility),
-        max_walk_steps: 4 * irradiance.tet_count.max(1).ilog2() * 16 + 256,
+        // The walk starts in a tetrahedron of the nearest probe, so it is short; the cap only
+        // guards against cycling on degenerate (cospherical) configurations.
+        max_walk_steps: 1024,
         normal_bias: options.normal_bias,
         pad0: [0; 3],
         grid: irradiance.grid,
