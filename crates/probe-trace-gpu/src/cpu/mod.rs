@@ -1,0 +1,331 @@
+//! The CPU twin of the GPU tracer: the same algorithms on the same packed numbers, one ray per
+//! call, spread over the machine's threads.
+
+mod diffuse;
+pub(crate) mod march;
+pub(crate) mod select;
+
+use std::time::Instant;
+
+use glam::{UVec2, Vec3};
+use probe_index::NO_PROBE;
+
+use crate::error::{TraceError, UploadError};
+use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
+use crate::packed::{
+    PackedField, PackedIrradiance, PackedSelection, TraceParams, diffuse_params, padded_index,
+    prepare_points, prepare_rays, trace_params,
+};
+use crate::ray::{
+    DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, Timing, TraceOptions,
+    TraceRay,
+};
+use march::{CONTINUE, HIT, MISS, ProbeRay, Segment, UNKNOWN, split_segments};
+use select::Selector;
+
+/// Results of a trace call, with its timing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceOutput {
+    /// One result per ray, in order.
+    pub results: Vec<RayResult>,
+    /// How long the call took.
+    pub timing: Timing,
+}
+
+/// Results of a diffuse shading call, with its timing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiffuseOutput {
+    /// One result per shading point, in order.
+    pub results: Vec<DiffuseResult>,
+    /// How long the call took.
+    pub timing: Timing,
+}
+
+/// The CPU reference tracer: same inputs, algorithms, texel reads and outputs as
+/// [`crate::GpuTracer`], written in Rust step for step as the WGSL.
+#[derive(Clone, Debug, Default)]
+pub struct CpuTracer {
+    field: Option<PackedField>,
+    selection: Option<PackedSelection>,
+    irradiance: Option<PackedIrradiance>,
+}
+
+impl CpuTracer {
+    /// A tracer with nothing uploaded.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Checks and takes a light field and its probe selection (replacing any earlier one).
+    ///
+    /// # Errors
+    /// [`UploadError`] naming the bad slice, element or parameter.
+    pub fn upload(
+        &mut self,
+        field: &LightField<'_>,
+        selection: &ProbeSelection<'_>,
+        options: &FieldOptions,
+    ) -> Result<(), UploadError> {
+        let packed = PackedField::new(field, options)?;
+        let selection = PackedSelection::new(selection, packed.probe_count as usize)?;
+        self.field = Some(packed);
+        self.selection = Some(selection);
+        Ok(())
+    }
+
+    /// Checks and takes irradiance and moment maps and the interpolation scheme.
+    ///
+    /// # Errors
+    /// [`UploadError`] naming the bad slice, element or parameter.
+    pub fn upload_irradiance(
+        &mut self,
+        field: &IrradianceField<'_>,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<(), UploadError> {
+        self.irradiance = Some(PackedIrradiance::new(field, interpolation)?);
+        Ok(())
+    }
+
+    /// Traces `rays` through the uploaded light field.
+    ///
+    /// # Errors
+    /// [`TraceError::NotUploaded`] before [`Self::upload`]; [`TraceError::BadInput`] for a bad
+    /// ray; [`TraceError::BadOption`] for bad options.
+    pub fn trace(
+        &self,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let start = Instant::now();
+        let (Some(field), Some(selection)) = (&self.field, &self.selection) else {
+            return Err(TraceError::NotUploaded {
+                what: "light field",
+                call: "upload",
+            });
+        };
+        let params = trace_params(field, selection, options)?;
+        let rays = prepare_rays(rays)?;
+        let records = parallel_map(&rays, |ray| trace_ray(field, selection, &params, ray));
+        Ok(TraceOutput {
+            results: records.into_iter().map(RayResult::from).collect(),
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu: None,
+            },
+        })
+    }
+
+    /// Shades `points` diffusely from the uploaded irradiance probes.
+    ///
+    /// # Errors
+    /// [`TraceError::NotUploaded`] before [`Self::upload_irradiance`];
+    /// [`TraceError::BadInput`] for a bad point; [`TraceError::BadOption`] for bad options.
+    pub fn shade_diffuse(
+        &self,
+        points: &[ShadingPoint],
+        options: &DiffuseOptions,
+    ) -> Result<DiffuseOutput, TraceError> {
+        let start = Instant::now();
+        let Some(irradiance) = &self.irradiance else {
+            return Err(TraceError::NotUploaded {
+                what: "irradiance field",
+                call: "upload_irradiance",
+            });
+        };
+        let params = diffuse_params(irradiance, options)?;
+        let points = prepare_points(points)?;
+        let results = parallel_map(&points, |p| diffuse::shade(irradiance, &params, p));
+        Ok(DiffuseOutput {
+            results,
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu: None,
+            },
+        })
+    }
+}
+
+/// Maps `f` over `items` on all available threads, keeping order.
+fn parallel_map<T: Sync, U: Send + Default + Clone>(
+    items: &[T],
+    f: impl Fn(&T) -> U + Sync,
+) -> Vec<U> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut out = vec![U::default(); items.len()];
+    if threads <= 1 || items.len() < 256 {
+        for (o, item) in out.iter_mut().zip(items) {
+            *o = f(item);
+        }
+        return out;
+    }
+    let chunk = items.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        for (outs, ins) in out.chunks_mut(chunk).zip(items.chunks(chunk)) {
+            let f = &f;
+            scope.spawn(move || {
+                for (o, item) in outs.iter_mut().zip(ins) {
+                    *o = f(item);
+                }
+            });
+        }
+    });
+    out
+}
+
+/// What one probe concluded about the ray from `t_start` on.
+struct ProbeAnswer {
+    code: u32,
+    t: f32,
+    cell: UVec2,
+    normal: u32,
+    fetches: u32,
+}
+
+/// Traces the ray through one probe from `t_start` (seed 003 Alg. 3 on the probe's segments).
+fn trace_probe(
+    field: &PackedField,
+    params: &TraceParams,
+    probe: u32,
+    ray: &TraceRay,
+    t_start: f32,
+) -> ProbeAnswer {
+    let origin = Vec3::from(ray.origin) - field.position(probe);
+    let direction = Vec3::from(ray.direction);
+    // The ray counts as a miss once it is this far from the probe (just inside the sky).
+    let sky = params.sky_distance * 0.999;
+    let b = origin.dot(direction);
+    let closest = origin - direction * b;
+    let h2 = closest.dot(closest);
+    let mut answer = ProbeAnswer {
+        code: MISS,
+        t: t_start,
+        cell: UVec2::ZERO,
+        normal: 0,
+        fetches: 0,
+    };
+    if origin.length() >= sky {
+        return answer;
+    }
+    let t_sky = -b + (sky * sky - h2).max(0.0).sqrt();
+    let t_end = ray.t_max.min(t_sky);
+    answer.t = t_end;
+    if t_end <= t_start {
+        answer.t = t_start;
+        return answer;
+    }
+    let mut segments = [Segment::default(); 4];
+    let count = split_segments(origin, direction, t_start, t_end, &mut segments);
+    let mut probe_ray = ProbeRay {
+        field,
+        params,
+        probe,
+        origin,
+        direction,
+        t_min: ray.t_min,
+        fetches: 0,
+    };
+    for segment in &segments[..count] {
+        let outcome = probe_ray.march_segment(segment);
+        if outcome.code != CONTINUE {
+            answer = ProbeAnswer {
+                code: outcome.code,
+                t: outcome.t,
+                cell: outcome.cell,
+                normal: outcome.normal,
+                fetches: 0,
+            };
+            break;
+        }
+    }
+    answer.fetches = probe_ray.fetches;
+    answer
+}
+
+/// Radiance of interior texel `cell` of `probe` (one fetch).
+fn radiance(field: &PackedField, probe: u32, cell: UVec2) -> [f32; 3] {
+    let i = 3 * padded_index(field.resolution, probe, cell.x, cell.y);
+    [
+        field.radiance[i],
+        field.radiance[i + 1],
+        field.radiance[i + 2],
+    ]
+}
+
+/// The interior texel holding `direction`.
+fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
+    let [x, y] = probe_octa::OctaLayout::new(resolution)
+        .expect("resolution checked at upload")
+        .texel_containing(direction);
+    UVec2::new(x, y)
+}
+
+/// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order).
+pub(crate) fn trace_ray(
+    field: &PackedField,
+    selection: &PackedSelection,
+    params: &TraceParams,
+    ray: &TraceRay,
+) -> RayRecord {
+    let selector = Selector {
+        params,
+        selection,
+        positions: &field.positions,
+    };
+    let origin = Vec3::from(ray.origin);
+    let direction = Vec3::from(ray.direction);
+    let mut t = ray.t_min;
+    let mut list = selector.select(origin + direction * t, direction, NO_PROBE);
+    let mut next = 0u32;
+    let mut tried = 0u32;
+    let mut fetches = 0u32;
+    let mut fallback = NO_PROBE;
+    let mut record = RayRecord {
+        status: UNKNOWN,
+        probe: NO_PROBE,
+        ..RayRecord::default()
+    };
+    while tried < params.max_probes && next < list.len {
+        let probe = list.probes[next as usize];
+        tried += 1;
+        if fallback == NO_PROBE {
+            fallback = probe;
+        }
+        let answer = trace_probe(field, params, probe, ray, t);
+        fetches += answer.fetches;
+        if answer.code == HIT || answer.code == MISS {
+            let (cell, normal) = if answer.code == HIT {
+                (answer.cell, crate::surface::unpack_normal(answer.normal))
+            } else {
+                (direction_cell(field.resolution, direction), Vec3::ZERO)
+            };
+            fetches += 1;
+            record.status = answer.code;
+            record.t = answer.t;
+            record.position = (origin + direction * answer.t).to_array();
+            record.normal = normal.to_array();
+            record.radiance = radiance(field, probe, cell);
+            record.probe = probe;
+            record.probes_tried = tried;
+            record.texel_fetches = fetches;
+            return record;
+        }
+        if answer.t > t {
+            t = answer.t;
+            list = selector.select(origin + direction * t, direction, probe);
+            next = 0;
+        } else {
+            next += 1;
+        }
+    }
+    // Fallback (seed 003 §5.4): the first probe tried as an environment map.
+    record.t = t;
+    record.position = (origin + direction * t).to_array();
+    record.probes_tried = tried;
+    if fallback != NO_PROBE {
+        fetches += 1;
+        record.radiance = radiance(field, fallback, direction_cell(field.resolution, direction));
+        record.probe = fallback;
+    }
+    record.texel_fetches = fetches;
+    record
+}

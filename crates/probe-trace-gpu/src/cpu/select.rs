@@ -1,0 +1,476 @@
+//! Probe selection on the packed arrays, step for step as `gpu/trace.wgsl` does it. Each
+//! selector reproduces the `probe_index::ProbeSelector` of its structure (tests check it).
+
+use glam::{UVec3, Vec3};
+use probe_index::{NO_PROBE, SVO_LEAF_BIT};
+
+use crate::packed::{PackedSelection, SELECT_GRID, SELECT_SVO, TraceParams};
+
+/// At most this many candidates (a grid cage).
+pub(crate) const MAX_CANDIDATES: usize = 8;
+
+/// Probes to try, best first.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Candidates {
+    pub probes: [u32; MAX_CANDIDATES],
+    pub len: u32,
+}
+
+impl Candidates {
+    /// Appends `probe` unless it is [`NO_PROBE`], the list is full or already holds it.
+    fn push(&mut self, probe: u32) {
+        if probe == NO_PROBE || self.len as usize >= MAX_CANDIDATES {
+            return;
+        }
+        if self.probes[..self.len as usize].contains(&probe) {
+            return;
+        }
+        self.probes[self.len as usize] = probe;
+        self.len += 1;
+    }
+
+    /// The candidates.
+    #[cfg(test)]
+    pub fn as_slice(&self) -> &[u32] {
+        &self.probes[..self.len as usize]
+    }
+}
+
+/// Reads the selection words.
+pub(crate) struct Selector<'a> {
+    pub params: &'a TraceParams,
+    pub selection: &'a PackedSelection,
+    pub positions: &'a [[f32; 4]],
+}
+
+impl Selector<'_> {
+    /// The probes to try at `position` for a ray along `direction`, after `failed` gave up there
+    /// (`NO_PROBE` at the ray's start).
+    pub fn select(&self, position: Vec3, direction: Vec3, failed: u32) -> Candidates {
+        match self.selection.kind {
+            SELECT_GRID => self.grid(position, direction, failed),
+            SELECT_SVO => self.svo(position, failed),
+            _ => self.voronoi(position, direction, failed),
+        }
+    }
+
+    fn grid(&self, position: Vec3, direction: Vec3, failed: u32) -> Candidates {
+        let g = &self.params.grid;
+        let origin = Vec3::from(g.origin);
+        let spacing = Vec3::from(g.spacing);
+        let counts = UVec3::new(g.count_x, g.count_y, g.count_z);
+        let max = (counts - UVec3::splat(2)).as_vec3();
+        let base = ((position - origin) / spacing)
+            .floor()
+            .clamp(Vec3::ZERO, max)
+            .as_uvec3();
+        let mut cage = [0u32; 8];
+        let mut first = 0usize;
+        let mut best = f32::NEG_INFINITY;
+        let mut failed_slot = usize::MAX;
+        for (slot, probe) in cage.iter_mut().enumerate() {
+            let s = slot as u32;
+            let c = base + UVec3::new(s & 1, (s >> 1) & 1, s >> 2);
+            *probe = c.x + counts.x * (c.y + counts.y * c.z);
+            let d = position - (origin + c.as_vec3() * spacing);
+            let score = if d == Vec3::ZERO {
+                1.0
+            } else {
+                direction.dot(d.normalize())
+            };
+            if score > best {
+                best = score;
+                first = slot;
+            }
+            if *probe == failed {
+                failed_slot = slot;
+            }
+        }
+        let mut slot = if failed_slot < 8 {
+            (failed_slot + 3) & 7
+        } else {
+            first
+        };
+        let mut out = Candidates::default();
+        for _ in 0..8 {
+            if cage[slot] != failed {
+                out.push(cage[slot]);
+            }
+            slot = (slot + 3) & 7;
+        }
+        out
+    }
+
+    fn svo(&self, position: Vec3, failed: u32) -> Candidates {
+        let h = &self.params.svo;
+        let words = &self.selection.words;
+        let origin = Vec3::from(h.origin);
+        let mut size = h.size;
+        let p = position.clamp(origin, origin + Vec3::splat(size));
+        let mut lo = origin;
+        let mut index = self.params.svo_nodes as usize;
+        let mut out = Candidates::default();
+        for _ in 0..=32 {
+            let word = words[index];
+            if word & SVO_LEAF_BIT != 0 {
+                let leaf = self.params.svo_leaves as usize + 4 * (word & !SVO_LEAF_BIT) as usize;
+                for &probe in &words[leaf..leaf + 4] {
+                    if probe != failed {
+                        out.push(probe);
+                    }
+                }
+                return out;
+            }
+            size *= 0.5;
+            let mid = lo + Vec3::splat(size);
+            let mut child = 0usize;
+            if p.x >= mid.x {
+                child |= 1;
+                lo.x = mid.x;
+            }
+            if p.y >= mid.y {
+                child |= 2;
+                lo.y = mid.y;
+            }
+            if p.z >= mid.z {
+                child |= 4;
+                lo.z = mid.z;
+            }
+            index = self.params.svo_nodes as usize + word as usize + child;
+        }
+        out
+    }
+
+    fn voronoi(&self, position: Vec3, direction: Vec3, failed: u32) -> Candidates {
+        let mut out = Candidates::default();
+        let from = if failed == NO_PROBE {
+            let first = nearest_probe(
+                &self.selection.words,
+                self.params.kd_nodes,
+                self.params.kd_count,
+                position,
+            );
+            if first == NO_PROBE {
+                return out;
+            }
+            out.push(first);
+            first
+        } else {
+            failed
+        };
+        let p = self.positions[from as usize];
+        let away = position - Vec3::new(p[0], p[1], p[2]);
+        let towards = if away.length_squared() > 0.0 {
+            away
+        } else {
+            direction
+        };
+        let n = self.params.neighbour_resolution;
+        let [i, j] = probe_octa::OctaLayout::new(n)
+            .expect("resolution checked at upload")
+            .texel_containing(towards);
+        let at = self.params.neighbour_table as usize
+            + ((from as usize * n as usize + j as usize) * n as usize + i as usize) * 4;
+        for &probe in &self.selection.words[at..at + 4] {
+            out.push(probe);
+        }
+        out
+    }
+}
+
+/// Nearest probe to `p` in the k-d tree stored at `words[start..]` (`count` nodes of 4 words:
+/// position bits, probe), ties to the lower probe; the search of `probe_index::NearestProbe`
+/// with an explicit stack.
+pub(crate) fn nearest_probe(words: &[u32], start: u32, count: u32, p: Vec3) -> u32 {
+    let mut best_probe = NO_PROBE;
+    let mut best_d2 = f32::INFINITY;
+    // (lo, hi, depth, bound): visit [lo, hi) unless bound > best.
+    let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+    stack[0] = (0, count, 0, -1.0);
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let (lo, hi, depth, bound) = stack[top];
+        if bound > best_d2 || lo >= hi {
+            continue;
+        }
+        let mid = (lo + hi) / 2;
+        let at = (start + 4 * mid) as usize;
+        let q = Vec3::new(
+            f32::from_bits(words[at]),
+            f32::from_bits(words[at + 1]),
+            f32::from_bits(words[at + 2]),
+        );
+        let probe = words[at + 3];
+        let d = q - p;
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        if d2 < best_d2 || (d2 == best_d2 && probe < best_probe) {
+            best_d2 = d2;
+            best_probe = probe;
+        }
+        let axis = (depth % 3) as usize;
+        let delta = p[axis] - q[axis];
+        let (near, far) = if delta < 0.0 {
+            ((lo, mid), (mid + 1, hi))
+        } else {
+            ((mid + 1, hi), (lo, mid))
+        };
+        if top + 2 <= stack.len() {
+            stack[top] = (far.0, far.1, depth + 1, delta * delta);
+            stack[top + 1] = (near.0, near.1, depth + 1, -1.0);
+            top += 2;
+        }
+    }
+    best_probe
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use bytemuck::Zeroable;
+    use probe_index::{
+        NearestProbe, ProbeGrid, ProbeQuery, ProbeSelector, RayHit, SceneGeometry,
+        SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours, VoronoiSelector,
+    };
+
+    use crate::input::ProbeSelection;
+
+    /// Deterministic numbers in [0, 1).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn point(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
+            lo + (hi - lo) * Vec3::new(self.next(), self.next(), self.next())
+        }
+
+        fn direction(&mut self) -> Vec3 {
+            (self.point(Vec3::NEG_ONE, Vec3::ONE) + Vec3::splat(1e-3)).normalize()
+        }
+    }
+
+    fn params_of(selection: &PackedSelection) -> TraceParams {
+        TraceParams {
+            selector: selection.kind,
+            grid: selection.grid,
+            svo: selection.svo,
+            svo_nodes: selection.svo_nodes,
+            svo_leaves: selection.svo_leaves,
+            kd_nodes: selection.kd_nodes,
+            kd_count: selection.kd_count,
+            neighbour_table: selection.neighbour_table,
+            neighbour_resolution: selection.neighbour_resolution,
+            ..TraceParams::zeroed()
+        }
+    }
+
+    /// Checks the packed selector against the reference on random queries, at the start of a
+    /// ray and after a failure (of a probe in the list, and of one elsewhere).
+    fn check(
+        reference: &dyn ProbeSelector,
+        selection: &ProbeSelection<'_>,
+        positions: &[Vec3],
+        lo: Vec3,
+        hi: Vec3,
+    ) {
+        let packed = PackedSelection::new(selection, positions.len()).unwrap();
+        let params = params_of(&packed);
+        let padded: Vec<[f32; 4]> = positions.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect();
+        let ours = Selector {
+            params: &params,
+            selection: &packed,
+            positions: &padded,
+        };
+        let mut rng = Lcg(11);
+        let (lo, hi) = (lo - Vec3::splat(0.5), hi + Vec3::splat(0.5));
+        for i in 0..3000 {
+            let position = if i % 10 == 0 {
+                // Exactly at a probe.
+                positions[i % positions.len()]
+            } else {
+                rng.point(lo, hi)
+            };
+            let direction = rng.direction();
+            let start = reference.select(&ProbeQuery {
+                position,
+                direction,
+                failed_probe: None,
+            });
+            let got = ours.select(position, direction, NO_PROBE);
+            assert_eq!(
+                got.as_slice(),
+                start.as_slice(),
+                "at {position} along {direction}"
+            );
+            let failed = match start.as_slice().first() {
+                Some(&p) if i % 2 == 0 => p,
+                _ => (rng.next() * positions.len() as f32) as u32 % positions.len() as u32,
+            };
+            let after = reference.select(&ProbeQuery {
+                position,
+                direction,
+                failed_probe: Some(failed),
+            });
+            let got = ours.select(position, direction, failed);
+            assert_eq!(
+                got.as_slice(),
+                after.as_slice(),
+                "after {failed} failed at {position}"
+            );
+        }
+    }
+
+    #[test]
+    fn grid_selection_matches_probe_index() {
+        let grid = ProbeGrid::new(
+            Vec3::new(-1.0, 0.2, 0.5),
+            Vec3::new(0.7, 1.1, 0.45),
+            [4, 3, 5],
+        )
+        .unwrap();
+        let positions = grid.positions();
+        let hi = grid.probe_position(grid.probe_count() as u32 - 1);
+        check(
+            &grid,
+            &ProbeSelection::Grid(grid),
+            &positions,
+            Vec3::new(-1.0, 0.2, 0.5),
+            hi,
+        );
+    }
+
+    #[test]
+    fn voronoi_selection_matches_probe_index() {
+        let mut rng = Lcg(5);
+        let positions: Vec<Vec3> = (0..60)
+            .map(|_| rng.point(Vec3::ZERO, Vec3::new(4.0, 2.0, 3.0)))
+            .collect();
+        let tets = Tetrahedralization::build(&positions).unwrap();
+        let neighbours = VoronoiNeighbours::bake(&tets, 8).unwrap();
+        let nearest = NearestProbe::new(&positions);
+        let reference = VoronoiSelector {
+            positions: &positions,
+            nearest: &nearest,
+            neighbours: &neighbours,
+        };
+        let selection = ProbeSelection::Voronoi {
+            nearest: &nearest,
+            neighbours: &neighbours,
+        };
+        check(
+            &reference,
+            &selection,
+            &positions,
+            Vec3::ZERO,
+            Vec3::new(4.0, 2.0, 3.0),
+        );
+    }
+
+    /// Triangles of axis-aligned boxes, brute-force ray casting.
+    struct Boxes(Vec<[Vec3; 3]>);
+
+    impl Boxes {
+        fn new(boxes: &[(Vec3, Vec3)]) -> Self {
+            let mut tris = Vec::new();
+            for &(lo, hi) in boxes {
+                let c = |i: u32| {
+                    Vec3::new(
+                        if i & 1 == 0 { lo.x } else { hi.x },
+                        if i & 2 == 0 { lo.y } else { hi.y },
+                        if i & 4 == 0 { lo.z } else { hi.z },
+                    )
+                };
+                for [a, b, cc, d] in [
+                    [0, 1, 3, 2],
+                    [4, 5, 7, 6],
+                    [0, 1, 5, 4],
+                    [2, 3, 7, 6],
+                    [0, 2, 6, 4],
+                    [1, 3, 7, 5],
+                ] {
+                    tris.push([c(a), c(b), c(cc)]);
+                    tris.push([c(a), c(cc), c(d)]);
+                }
+            }
+            Self(tris)
+        }
+    }
+
+    impl SceneGeometry for Boxes {
+        fn triangle_count(&self) -> usize {
+            self.0.len()
+        }
+
+        fn triangle(&self, index: usize) -> [Vec3; 3] {
+            self.0[index]
+        }
+
+        fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
+            let mut best: Option<RayHit> = None;
+            for [a, b, c] in &self.0 {
+                let (e1, e2) = (*b - *a, *c - *a);
+                let p = direction.cross(e2);
+                let det = e1.dot(p);
+                if det.abs() < 1e-12 {
+                    continue;
+                }
+                let s = origin - *a;
+                let u = s.dot(p) / det;
+                let q = s.cross(e1);
+                let v = direction.dot(q) / det;
+                let t = e2.dot(q) / det;
+                if u >= 0.0
+                    && v >= 0.0
+                    && u + v <= 1.0
+                    && t > 0.0
+                    && t <= max_distance
+                    && best.is_none_or(|h| t < h.distance)
+                {
+                    best = Some(RayHit {
+                        distance: t,
+                        normal: e1.cross(e2).normalize(),
+                    });
+                }
+            }
+            best
+        }
+    }
+
+    #[test]
+    fn octree_selection_matches_probe_index() {
+        let geometry = Boxes::new(&[
+            (Vec3::ZERO, Vec3::new(4.0, 0.1, 4.0)),
+            (Vec3::new(1.5, 0.0, 1.5), Vec3::new(2.5, 2.0, 2.5)),
+        ]);
+        let grid = ProbeGrid::new(
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(1.5, 1.0, 1.5),
+            [3, 2, 3],
+        )
+        .unwrap();
+        let positions = grid.positions();
+        let svo = SparseVoxelOctree::build(
+            &geometry,
+            &positions,
+            &SvoOptions {
+                max_depth: 4,
+                ..SvoOptions::default()
+            },
+        )
+        .unwrap();
+        check(
+            &svo,
+            &ProbeSelection::SparseVoxelOctree(&svo),
+            &positions,
+            Vec3::ZERO,
+            Vec3::new(4.0, 2.0, 4.0),
+        );
+    }
+}

@@ -1,0 +1,174 @@
+//! One error enum per operation family: getting a device ([`GpuError`]), checking and uploading
+//! probe data ([`UploadError`]), and tracing or shading ([`TraceError`]).
+
+/// Why no GPU device could be had.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter (GPU or software rasteriser) is available. Fix: install a Vulkan, Metal or
+    /// DX12 driver; on Linux without a GPU, Mesa's software Vulkan (`mesa-vulkan-drivers`,
+    /// "lavapipe") is enough. `WGPU_BACKEND` and `WGPU_ADAPTER_NAME` steer the choice.
+    #[error(
+        "no GPU adapter is available ({source}); install a Vulkan driver (e.g. Mesa's lavapipe, package `mesa-vulkan-drivers`)"
+    )]
+    NoAdapter {
+        /// wgpu's reason.
+        #[source]
+        source: wgpu::RequestAdapterError,
+    },
+    /// The adapter refused to create a device with the features and limits asked for. Fix:
+    /// update the driver, or use another adapter (`WGPU_ADAPTER_NAME`).
+    #[error("adapter `{adapter}` refused a device: {source}")]
+    Device {
+        /// The adapter's name.
+        adapter: String,
+        /// wgpu's reason.
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+    /// The device cannot run the tracer's compute shaders (a downlevel device without compute
+    /// or with fewer than 7 storage buffers per stage). Fix: use a device with full compute
+    /// support (any Vulkan 1.1, Metal or DX12 device).
+    #[error("adapter `{adapter}` cannot run the tracer: {reason}")]
+    Unsupported {
+        /// The adapter's name.
+        adapter: String,
+        /// What is missing.
+        reason: String,
+    },
+}
+
+/// Why probe data or selection data was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UploadError {
+    /// The map resolution cannot be used. Fix: bake probes at a power of two from 8 to 4096
+    /// (the hi-Z pyramid halves the resolution level by level).
+    #[error("`{parameter}` is {value}; it must be a power of two from {min} to {max}")]
+    Resolution {
+        /// The parameter holding the resolution.
+        parameter: &'static str,
+        /// The value given.
+        value: u32,
+        /// Smallest value accepted.
+        min: u32,
+        /// Largest value accepted.
+        max: u32,
+    },
+    /// There are no probes. Fix: pass at least one probe position and its maps.
+    #[error("the light field has no probes")]
+    NoProbes,
+    /// A slice has the wrong length. Fix: pass `probes × (N+2)²` padded texels per map (probes
+    /// one after another, in the padded layout of `probe_octa::OctaLayout`) and one position per
+    /// probe.
+    #[error("`{parameter}` holds {actual} elements; {expected} are needed")]
+    LengthMismatch {
+        /// The parameter with the wrong length.
+        parameter: &'static str,
+        /// Elements needed.
+        expected: usize,
+        /// Elements given.
+        actual: usize,
+    },
+    /// An element is NaN or infinite. Fix: store sky (no geometry) as a finite distance at or
+    /// above `sky_distance`, and keep positions, normals and radiance finite.
+    #[error("`{parameter}[{index}]` is not finite")]
+    NonFinite {
+        /// The parameter holding it.
+        parameter: &'static str,
+        /// Index of the element.
+        index: usize,
+    },
+    /// A radial distance is negative. Fix: store distances from the probe centre (>= 0).
+    #[error("`radial_distance[{index}]` is {value}; distances must be >= 0")]
+    NegativeDistance {
+        /// Index of the texel.
+        index: usize,
+        /// The value found.
+        value: f32,
+    },
+    /// A scalar parameter is out of range. Fix: see the parameter's documentation (e.g.
+    /// `sky_distance` must be finite and positive, `thickness_scale` finite and >= 0).
+    #[error("`{parameter}` is {value}; {requirement}")]
+    BadParameter {
+        /// The parameter.
+        parameter: &'static str,
+        /// The value given.
+        value: f32,
+        /// What it must be.
+        requirement: &'static str,
+    },
+    /// The selection structure was built for a different number of probes. Fix: build the
+    /// grid, octree or neighbour maps from the same probe set, in the same order.
+    #[error("the {selection} covers {actual} probes but the light field has {expected}")]
+    ProbeCountMismatch {
+        /// Which structure.
+        selection: &'static str,
+        /// Probes in the light field.
+        expected: usize,
+        /// Probes the structure covers.
+        actual: usize,
+    },
+    /// The selection structure names a probe that does not exist. Fix: rebuild it from this
+    /// probe set.
+    #[error("the {selection} names probe {probe}, but there are only {probe_count} probes")]
+    ProbeOutOfRange {
+        /// Which structure.
+        selection: &'static str,
+        /// The probe index found.
+        probe: u32,
+        /// Probes in the light field.
+        probe_count: usize,
+    },
+    /// The data is too large to address or to bind on this device. Fix: use fewer or smaller
+    /// probes (or a device with larger storage-buffer limits).
+    #[error("`{buffer}` needs {bytes} bytes, above the limit of {limit}")]
+    TooLarge {
+        /// Which buffer.
+        buffer: &'static str,
+        /// Bytes needed.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
+}
+
+/// Why a trace or a shading pass failed.
+#[derive(Debug, thiserror::Error)]
+pub enum TraceError {
+    /// Nothing to trace through yet. Fix: call `upload` (or `upload_irradiance` before
+    /// `shade_diffuse`) first.
+    #[error("no {what} uploaded yet; call `{call}` first")]
+    NotUploaded {
+        /// What is missing.
+        what: &'static str,
+        /// The call that provides it.
+        call: &'static str,
+    },
+    /// A ray or shading point is unusable. Fix: pass finite origins, finite non-zero
+    /// directions (normals) and `0 <= t_min <= t_max` (`t_max` may be infinite).
+    #[error("{item} {index}: {reason}")]
+    BadInput {
+        /// `"ray"` or `"shading point"`.
+        item: &'static str,
+        /// Its index.
+        index: usize,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// An option is out of range. Fix: see the option's documentation.
+    #[error("option `{option}` is {value}; {requirement}")]
+    BadOption {
+        /// The option.
+        option: &'static str,
+        /// The value given.
+        value: f64,
+        /// What it must be.
+        requirement: &'static str,
+    },
+    /// The device reported an error while running the pass (validation, out of memory, or a
+    /// lost device). Fix: usually a driver problem; retry with fewer rays per call.
+    #[error("the device failed: {message}")]
+    Device {
+        /// The device's message.
+        message: String,
+    },
+}

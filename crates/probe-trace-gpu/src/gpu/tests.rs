@@ -1,0 +1,194 @@
+//! Tests that need no GPU: every shader passes naga's validation, and every `#[repr(C)]` struct
+//! shared with WGSL has the layout WGSL gives it.
+
+use std::mem::{offset_of, size_of};
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+use super::{DIFFUSE_WGSL, TRACE_WGSL};
+use crate::packed::{DiffuseParams, TraceParams};
+use crate::ray::{RayRecord, ShadingPoint, TraceRay};
+
+fn parse(name: &str, source: &str) -> naga::Module {
+    naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)))
+}
+
+#[test]
+fn shaders_pass_naga_validation() {
+    for (name, source) in [("trace", TRACE_WGSL), ("diffuse", DIFFUSE_WGSL)] {
+        let module = parse(name, source);
+        Validator::new(ValidationFlags::all(), Capabilities::default())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(source)));
+        let entry = if name == "trace" {
+            "trace_main"
+        } else {
+            "diffuse_main"
+        };
+        assert!(
+            module.entry_points.iter().any(|e| e.name == entry),
+            "{name} lacks `{entry}`"
+        );
+    }
+}
+
+/// Size and member offsets of the WGSL struct `name`.
+fn wgsl_struct(module: &naga::Module, name: &str) -> (u32, Vec<(String, u32)>) {
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    for (handle, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            assert_eq!(*span, layouter[handle].size);
+            let offsets = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect();
+            return (*span, offsets);
+        }
+    }
+    panic!("no struct `{name}` in the shader");
+}
+
+fn check(module: &naga::Module, name: &str, size: usize, fields: &[(&str, usize)]) {
+    let (wgsl_size, members) = wgsl_struct(module, name);
+    assert_eq!(wgsl_size as usize, size, "size of {name}");
+    for (field, offset) in fields {
+        let found = members
+            .iter()
+            .find(|(m, _)| m == field)
+            .unwrap_or_else(|| panic!("{name} has no member `{field}`"));
+        assert_eq!(found.1 as usize, *offset, "offset of {name}.{field}");
+    }
+}
+
+#[test]
+fn shared_structs_match_the_wgsl_layout() {
+    let trace = parse("trace", TRACE_WGSL);
+    check(
+        &trace,
+        "TraceRay",
+        size_of::<TraceRay>(),
+        &[
+            ("origin", offset_of!(TraceRay, origin)),
+            ("t_min", offset_of!(TraceRay, t_min)),
+            ("direction", offset_of!(TraceRay, direction)),
+            ("t_max", offset_of!(TraceRay, t_max)),
+        ],
+    );
+    check(
+        &trace,
+        "RayRecord",
+        size_of::<RayRecord>(),
+        &[
+            ("position", offset_of!(RayRecord, position)),
+            ("t", offset_of!(RayRecord, t)),
+            ("normal", offset_of!(RayRecord, normal)),
+            ("status", offset_of!(RayRecord, status)),
+            ("radiance", offset_of!(RayRecord, radiance)),
+            ("probe", offset_of!(RayRecord, probe)),
+            ("probes_tried", offset_of!(RayRecord, probes_tried)),
+            ("texel_fetches", offset_of!(RayRecord, texel_fetches)),
+        ],
+    );
+    check(
+        &trace,
+        "GridParams",
+        size_of::<probe_index::GridParams>(),
+        &[
+            ("origin", offset_of!(probe_index::GridParams, origin)),
+            ("count_x", offset_of!(probe_index::GridParams, count_x)),
+            ("spacing", offset_of!(probe_index::GridParams, spacing)),
+            ("count_y", offset_of!(probe_index::GridParams, count_y)),
+            ("count_z", offset_of!(probe_index::GridParams, count_z)),
+        ],
+    );
+    check(
+        &trace,
+        "SvoHeader",
+        size_of::<probe_index::SvoHeader>(),
+        &[
+            ("origin", offset_of!(probe_index::SvoHeader, origin)),
+            ("size", offset_of!(probe_index::SvoHeader, size)),
+            ("depth", offset_of!(probe_index::SvoHeader, depth)),
+        ],
+    );
+    check(
+        &trace,
+        "TraceParams",
+        size_of::<TraceParams>(),
+        &[
+            ("resolution", offset_of!(TraceParams, resolution)),
+            ("ray_count", offset_of!(TraceParams, ray_count)),
+            ("threads_per_row", offset_of!(TraceParams, threads_per_row)),
+            ("method", offset_of!(TraceParams, method)),
+            ("top_level", offset_of!(TraceParams, top_level)),
+            ("coarse_level", offset_of!(TraceParams, coarse_level)),
+            ("max_probes", offset_of!(TraceParams, max_probes)),
+            ("selector", offset_of!(TraceParams, selector)),
+            (
+                "back_face_rejection",
+                offset_of!(TraceParams, back_face_rejection),
+            ),
+            ("level_count", offset_of!(TraceParams, level_count)),
+            ("max_steps", offset_of!(TraceParams, max_steps)),
+            ("sky_distance", offset_of!(TraceParams, sky_distance)),
+            ("thickness_scale", offset_of!(TraceParams, thickness_scale)),
+            ("level_offsets", offset_of!(TraceParams, level_offsets)),
+            ("grid", offset_of!(TraceParams, grid)),
+            ("svo", offset_of!(TraceParams, svo)),
+            ("svo_nodes", offset_of!(TraceParams, svo_nodes)),
+            ("svo_leaves", offset_of!(TraceParams, svo_leaves)),
+            ("kd_nodes", offset_of!(TraceParams, kd_nodes)),
+            ("kd_count", offset_of!(TraceParams, kd_count)),
+            ("neighbour_table", offset_of!(TraceParams, neighbour_table)),
+            (
+                "neighbour_resolution",
+                offset_of!(TraceParams, neighbour_resolution),
+            ),
+        ],
+    );
+    let diffuse = parse("diffuse", DIFFUSE_WGSL);
+    check(
+        &diffuse,
+        "ShadingPoint",
+        size_of::<ShadingPoint>(),
+        &[
+            ("position", offset_of!(ShadingPoint, position)),
+            ("normal", offset_of!(ShadingPoint, normal)),
+        ],
+    );
+    check(
+        &diffuse,
+        "DiffuseParams",
+        size_of::<DiffuseParams>(),
+        &[
+            ("point_count", offset_of!(DiffuseParams, point_count)),
+            (
+                "threads_per_row",
+                offset_of!(DiffuseParams, threads_per_row),
+            ),
+            ("probe_count", offset_of!(DiffuseParams, probe_count)),
+            ("interpolation", offset_of!(DiffuseParams, interpolation)),
+            (
+                "irradiance_resolution",
+                offset_of!(DiffuseParams, irradiance_resolution),
+            ),
+            (
+                "moments_resolution",
+                offset_of!(DiffuseParams, moments_resolution),
+            ),
+            ("visibility", offset_of!(DiffuseParams, visibility)),
+            ("max_walk_steps", offset_of!(DiffuseParams, max_walk_steps)),
+            ("normal_bias", offset_of!(DiffuseParams, normal_bias)),
+            ("grid", offset_of!(DiffuseParams, grid)),
+            ("tets", offset_of!(DiffuseParams, tets)),
+            ("tet_count", offset_of!(DiffuseParams, tet_count)),
+            ("vertex_tets", offset_of!(DiffuseParams, vertex_tets)),
+            ("kd_nodes", offset_of!(DiffuseParams, kd_nodes)),
+            ("kd_count", offset_of!(DiffuseParams, kd_count)),
+        ],
+    );
+}

@@ -1,0 +1,739 @@
+// The multi-probe light-field trace: one invocation per ray. Compiled after common.wgsl.
+// Step for step the same as src/cpu/mod.rs (the ray loop), src/cpu/march.rs (segments, hi-Z,
+// two-level, fine test) and src/cpu/select.rs (probe selection); read those for the commentary.
+
+const HIT: u32 = 0u;
+const MISS: u32 = 1u;
+const UNKNOWN: u32 = 2u;
+const CONTINUE: u32 = 3u;
+const METHOD_HIZ: u32 = 0u;
+const SELECT_GRID: u32 = 0u;
+const SELECT_SVO: u32 = 1u;
+const SVO_LEAF_BIT: u32 = 0x80000000u;
+const NO_EXIT: f32 = 4.0;
+const SIGN_BIT: u32 = 0x80000000u;
+
+// probe_index::SvoHeader (32 bytes).
+struct SvoHeader {
+    origin: vec3<f32>,
+    size: f32,
+    depth: u32,
+    node_count: u32,
+    leaf_count: u32,
+    pad: u32,
+}
+
+// src/packed.rs TraceParams (240 bytes).
+struct TraceParams {
+    resolution: u32,
+    probe_count: u32,
+    ray_count: u32,
+    threads_per_row: u32,
+    method: u32,
+    top_level: u32,
+    coarse_level: u32,
+    max_probes: u32,
+    selector: u32,
+    back_face_rejection: u32,
+    level_count: u32,
+    max_steps: u32,
+    sky_distance: f32,
+    thickness_scale: f32,
+    pad0: u32,
+    pad1: u32,
+    level_offsets: array<vec4<u32>, 4>,
+    grid: GridParams,
+    svo: SvoHeader,
+    svo_nodes: u32,
+    svo_leaves: u32,
+    kd_nodes: u32,
+    kd_count: u32,
+    neighbour_table: u32,
+    neighbour_resolution: u32,
+    pad2: u32,
+    pad3: u32,
+}
+
+// src/ray.rs TraceRay (32 bytes).
+struct TraceRay {
+    origin: vec3<f32>,
+    t_min: f32,
+    direction: vec3<f32>,
+    t_max: f32,
+}
+
+// src/ray.rs RayRecord (64 bytes).
+struct RayRecord {
+    position: vec3<f32>,
+    t: f32,
+    normal: vec3<f32>,
+    status: u32,
+    radiance: vec3<f32>,
+    probe: u32,
+    probes_tried: u32,
+    texel_fetches: u32,
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: TraceParams;
+@group(0) @binding(1) var<storage, read> rays: array<TraceRay>;
+@group(0) @binding(2) var<storage, read_write> records: array<RayRecord>;
+@group(0) @binding(3) var<storage, read> positions: array<vec4<f32>>;
+// Per padded texel: radial distance bits (sign: farther edge), packed normal, near bits, far
+// bits (sign: nearer edge). See src/packed.rs TexelBounds.
+@group(0) @binding(4) var<storage, read> geometry: array<vec4<u32>>;
+// Levels 1.. of the (min near, max far) pyramids.
+@group(0) @binding(5) var<storage, read> pyramid: array<vec2<f32>>;
+// 3 floats per padded texel.
+@group(0) @binding(6) var<storage, read> radiance: array<f32>;
+// Octree nodes and payloads, or k-d tree nodes and the neighbour table.
+@group(0) @binding(7) var<storage, read> words: array<u32>;
+
+// The probe being traced, the ray relative to it, and the fetch counter of the current ray.
+var<private> cur_probe: u32;
+var<private> ray_o: vec3<f32>;
+var<private> ray_d: vec3<f32>;
+var<private> ray_t_min: f32;
+var<private> fetches: u32;
+
+struct Segment {
+    t0: f32,
+    t1: f32,
+    q0: vec2<f32>,
+    q1: vec2<f32>,
+    l0: f32,
+    l1: f32,
+}
+
+struct Outcome {
+    code: u32,
+    t: f32,
+    cell: vec2<u32>,
+    normal: u32,
+}
+
+fn outcome_continue() -> Outcome {
+    return Outcome(CONTINUE, 0.0, vec2<u32>(0u), 0u);
+}
+
+fn outcome_unknown(t: f32) -> Outcome {
+    return Outcome(UNKNOWN, t, vec2<u32>(0u), 0u);
+}
+
+fn padded_index(n: u32, probe: u32, cell: vec2<u32>) -> u32 {
+    let side = n + 2u;
+    return probe * side * side + (cell.y + 1u) * side + cell.x + 1u;
+}
+
+// ---- segments (src/cpu/march.rs split_segments) ----
+
+fn encode_in_octant(p: vec3<f32>, signs: vec3<f32>) -> vec2<f32> {
+    let l1 = abs(p.x) + abs(p.y) + abs(p.z);
+    let q = vec2<f32>(abs(p.x) * signs.x, abs(p.y) * signs.y) / l1;
+    if (signs.z < 0.0) {
+        return vec2<f32>((1.0 - abs(q.y)) * sign_not_zero(signs.x), (1.0 - abs(q.x)) * sign_not_zero(signs.y));
+    }
+    return q;
+}
+
+struct Endpoint {
+    q: vec2<f32>,
+    l: f32,
+}
+
+fn endpoint(o: vec3<f32>, d: vec3<f32>, t: f32, vanishing: u32, signs: vec3<f32>, starts_here: bool) -> Endpoint {
+    var p = o + d * t;
+    if ((vanishing & 1u) != 0u) {
+        p.x = 0.0;
+    }
+    if ((vanishing & 2u) != 0u) {
+        p.y = 0.0;
+    }
+    if ((vanishing & 4u) != 0u) {
+        p.z = 0.0;
+    }
+    let l1 = abs(p.x) + abs(p.y) + abs(p.z);
+    if (l1 == 0.0) {
+        var limit = -d;
+        if (starts_here) {
+            limit = d;
+        }
+        return Endpoint(encode_in_octant(limit, signs), 0.0);
+    }
+    return Endpoint(encode_in_octant(p, signs), l1);
+}
+
+struct Segments {
+    s: array<Segment, 4>,
+    count: u32,
+}
+
+fn split_segments(o: vec3<f32>, d: vec3<f32>, t_min: f32, t_max: f32) -> Segments {
+    var cut_t: array<f32, 3>;
+    var cut_mask: array<u32, 3>;
+    var count = 0u;
+    for (var axis = 0u; axis < 3u; axis++) {
+        if (d[axis] != 0.0) {
+            let t = -o[axis] / d[axis];
+            if (t > t_min && t < t_max) {
+                cut_t[count] = t;
+                cut_mask[count] = 1u << axis;
+                count += 1u;
+            }
+        }
+    }
+    for (var i = 1u; i < count; i++) {
+        var j = i;
+        loop {
+            if (j == 0u || !(cut_t[j - 1u] > cut_t[j])) {
+                break;
+            }
+            let ta = cut_t[j - 1u];
+            cut_t[j - 1u] = cut_t[j];
+            cut_t[j] = ta;
+            let ma = cut_mask[j - 1u];
+            cut_mask[j - 1u] = cut_mask[j];
+            cut_mask[j] = ma;
+            j -= 1u;
+        }
+    }
+    var bound_t: array<f32, 5>;
+    var bound_mask: array<u32, 5>;
+    bound_t[0] = t_min;
+    bound_mask[0] = 0u;
+    var bounds = 1u;
+    for (var i = 0u; i < count; i++) {
+        if (bounds > 1u && bound_t[bounds - 1u] == cut_t[i]) {
+            bound_mask[bounds - 1u] |= cut_mask[i];
+        } else {
+            bound_t[bounds] = cut_t[i];
+            bound_mask[bounds] = cut_mask[i];
+            bounds += 1u;
+        }
+    }
+    bound_t[bounds] = t_max;
+    bound_mask[bounds] = 0u;
+    var out: Segments;
+    out.count = bounds;
+    for (var i = 0u; i < bounds; i++) {
+        let t0 = bound_t[i];
+        let t1 = bound_t[i + 1u];
+        let mid = o + d * (0.5 * t0 + 0.5 * t1);
+        let signs = vec3<f32>(sign_not_zero(mid.x), sign_not_zero(mid.y), sign_not_zero(mid.z));
+        let e0 = endpoint(o, d, t0, bound_mask[i], signs, true);
+        let e1 = endpoint(o, d, t1, bound_mask[i + 1u], signs, false);
+        out.s[i] = Segment(t0, t1, e0.q, e1.q, e0.l, e1.l);
+    }
+    return out;
+}
+
+fn t_of(seg: Segment, sigma: f32) -> f32 {
+    if (sigma <= 0.0) {
+        return seg.t0;
+    }
+    if (sigma >= 1.0) {
+        return seg.t1;
+    }
+    let a = sigma * seg.l0;
+    let lambda = a / (a + (1.0 - sigma) * seg.l1);
+    return seg.t0 + (seg.t1 - seg.t0) * lambda;
+}
+
+// ---- cells (src/cpu/march.rs) ----
+
+fn entered_index(c: f32, dc: f32) -> i32 {
+    let f = floor(c);
+    if (dc < 0.0 && c == f) {
+        return i32(f) - 1;
+    }
+    return i32(f);
+}
+
+fn start_cell(c0: vec2<f32>, delta: vec2<f32>, n: u32) -> vec2<u32> {
+    let last = i32(n) - 1;
+    return vec2<u32>(
+        u32(clamp(entered_index(c0.x, delta.x), 0, last)),
+        u32(clamp(entered_index(c0.y, delta.y), 0, last)),
+    );
+}
+
+fn exit_axis(i: u32, c: f32, dc: f32, size: f32) -> f32 {
+    if (dc > 0.0) {
+        return (f32(i + 1u) * size - c) / dc;
+    }
+    if (dc < 0.0) {
+        return (f32(i) * size - c) / dc;
+    }
+    return NO_EXIT;
+}
+
+fn exit_sigmas(cell: vec2<u32>, level: u32, c0: vec2<f32>, delta: vec2<f32>) -> vec2<f32> {
+    let size = f32(1u << level);
+    return vec2<f32>(exit_axis(cell.x, c0.x, delta.x, size), exit_axis(cell.y, c0.y, delta.y, size));
+}
+
+fn advance_axis(i: u32, level: u32, crossed: bool, c: f32, dc: f32) -> i32 {
+    let lo = i32(i << level);
+    let hi = i32((i + 1u) << level) - 1;
+    if (crossed) {
+        if (dc > 0.0) {
+            return hi + 1;
+        }
+        return lo - 1;
+    }
+    return clamp(entered_index(c, dc), lo, hi);
+}
+
+// Moves *cursor to where the line enters the next cell after leaving `cell` of `level` at
+// σ = exit; false if it left the map.
+fn advance(cursor: ptr<function, vec2<u32>>, cell: vec2<u32>, level: u32, s: vec2<f32>, exit: f32, c0: vec2<f32>, delta: vec2<f32>, n: u32) -> bool {
+    let at = c0 + delta * exit;
+    let x = advance_axis(cell.x, level, s.x <= exit, at.x, delta.x);
+    let y = advance_axis(cell.y, level, s.y <= exit, at.y, delta.y);
+    let ni = i32(n);
+    if (x < 0 || y < 0 || x >= ni || y >= ni) {
+        return false;
+    }
+    *cursor = vec2<u32>(u32(x), u32(y));
+    return true;
+}
+
+// ---- tests ----
+
+fn radius(t: f32) -> f32 {
+    return length(ray_o + ray_d * t);
+}
+
+fn pyramid_texel(level: u32, cell: vec2<u32>) -> vec2<f32> {
+    fetches += 1u;
+    let side = params.resolution >> level;
+    let index = params.level_offsets[level / 4u][level % 4u] + (cur_probe * side + cell.y) * side + cell.x;
+    return pyramid[index];
+}
+
+fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
+    fetches += 1u;
+    let n = params.resolution;
+    let texel = geometry[padded_index(n, cur_probe, cell)];
+    let farther_edge = (texel.x & SIGN_BIT) != 0u;
+    let nearer_edge = (texel.w & SIGN_BIT) != 0u;
+    let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
+    if (distance >= params.sky_distance && !nearer_edge) {
+        return outcome_continue();
+    }
+    let near = bitcast<f32>(texel.z);
+    let far = bitcast<f32>(texel.w & ~SIGN_BIT);
+    let ra = radius(ta);
+    let rb = radius(tb);
+    if (max(ra, rb) < near) {
+        return outcome_continue();
+    }
+    if (ra > far || nearer_edge) {
+        return outcome_unknown(ta);
+    }
+    let normal = unpack_normal(texel.y);
+    let center = octa_decode(texel_center(n, cell));
+    let surface = texel_surface(n, center, distance, normal, params.thickness_scale);
+    let nv = surface.visible_normal;
+    let sa = dot(ray_o + ray_d * ta - center * distance, nv);
+    let k = dot(ray_d, nv);
+    let sb = sa + (tb - ta) * k;
+    if (sa < -surface.thickness) {
+        if (ra >= near) {
+            return outcome_unknown(ta);
+        }
+        return outcome_continue();
+    }
+    if (sa >= 0.0 && sb >= 0.0) {
+        return outcome_continue();
+    }
+    if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
+        return outcome_continue();
+    }
+    if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
+        return outcome_unknown(ta);
+    }
+    var t = ta;
+    if (sa > 0.0) {
+        t = min(ta - sa / k, tb);
+    }
+    return Outcome(HIT, t, cell, texel.y);
+}
+
+// ---- marches ----
+
+fn march_hiz(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, top: u32) -> Outcome {
+    let n = params.resolution;
+    var level = 0u;
+    var cursor = start_cell(c0, delta, n);
+    var sigma = 0.0;
+    var ta = seg.t0;
+    for (var step = 0u; step < params.max_steps; step++) {
+        let cell = cursor >> vec2<u32>(level);
+        let s = exit_sigmas(cell, level, c0, delta);
+        let exit = max(min(s.x, s.y), sigma);
+        let tb = t_of(seg, min(exit, 1.0));
+        if (level > 0u) {
+            let bounds = pyramid_texel(level, cell);
+            let ra = radius(ta);
+            let rb = radius(tb);
+            if (max(ra, rb) >= bounds.x) {
+                if (ra > bounds.y) {
+                    return outcome_unknown(ta);
+                }
+                level -= 1u;
+                continue;
+            }
+        } else {
+            let outcome = fine_test(cursor, ta, tb);
+            if (outcome.code != CONTINUE) {
+                return outcome;
+            }
+        }
+        if (exit >= 1.0 || !advance(&cursor, cell, level, s, exit, c0, delta, n)) {
+            return outcome_continue();
+        }
+        sigma = exit;
+        ta = tb;
+        let next = cursor >> vec2<u32>(level);
+        if (level < top && any((next >> vec2<u32>(1u)) != (cell >> vec2<u32>(1u)))) {
+            level += 1u;
+        }
+    }
+    return outcome_unknown(ta);
+}
+
+fn march_two_level(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, coarse: u32) -> Outcome {
+    let n = params.resolution;
+    var cursor = start_cell(c0, delta, n);
+    var sigma = 0.0;
+    var ta = seg.t0;
+    var steps = 0u;
+    loop {
+        if (steps >= params.max_steps) {
+            break;
+        }
+        steps += 1u;
+        let cell = cursor >> vec2<u32>(coarse);
+        let s = exit_sigmas(cell, coarse, c0, delta);
+        let exit = max(min(s.x, s.y), sigma);
+        let tb = t_of(seg, min(exit, 1.0));
+        let bounds = pyramid_texel(coarse, cell);
+        var left_cell = false;
+        if (max(radius(ta), radius(tb)) >= bounds.x) {
+            loop {
+                if (steps >= params.max_steps) {
+                    break;
+                }
+                steps += 1u;
+                let fs = exit_sigmas(cursor, 0u, c0, delta);
+                let fexit = max(min(fs.x, fs.y), sigma);
+                let ftb = t_of(seg, min(fexit, 1.0));
+                let outcome = fine_test(cursor, ta, ftb);
+                if (outcome.code != CONTINUE) {
+                    return outcome;
+                }
+                if (fexit >= exit || fexit >= 1.0) {
+                    break;
+                }
+                let fine = cursor;
+                if (!advance(&cursor, fine, 0u, fs, fexit, c0, delta, n)) {
+                    return outcome_continue();
+                }
+                sigma = fexit;
+                ta = ftb;
+                if (any((cursor >> vec2<u32>(coarse)) != cell)) {
+                    left_cell = true;
+                    break;
+                }
+            }
+        }
+        if (left_cell) {
+            continue;
+        }
+        if (exit >= 1.0 || !advance(&cursor, cell, coarse, s, exit, c0, delta, n)) {
+            return outcome_continue();
+        }
+        sigma = exit;
+        ta = tb;
+    }
+    return outcome_unknown(ta);
+}
+
+fn march_segment(seg: Segment) -> Outcome {
+    let n = params.resolution;
+    let nf = f32(n);
+    let c0 = clamp((seg.q0 + vec2<f32>(1.0)) * (0.5 * nf), vec2<f32>(0.0), vec2<f32>(nf));
+    let c1 = clamp((seg.q1 + vec2<f32>(1.0)) * (0.5 * nf), vec2<f32>(0.0), vec2<f32>(nf));
+    let delta = c1 - c0;
+    if (seg.l0 <= 0.0 || seg.l1 <= 0.0 || dot(delta, delta) < 1e-12) {
+        let cell = start_cell((c0 + c1) * 0.5, vec2<f32>(0.0), n);
+        return fine_test(cell, seg.t0, seg.t1);
+    }
+    if (params.method == METHOD_HIZ || params.coarse_level == 0u) {
+        var top = 0u;
+        if (params.method == METHOD_HIZ) {
+            top = params.top_level;
+        }
+        return march_hiz(seg, c0, delta, top);
+    }
+    return march_two_level(seg, c0, delta, params.coarse_level);
+}
+
+// ---- one probe (src/cpu/mod.rs trace_probe) ----
+
+struct ProbeAnswer {
+    code: u32,
+    t: f32,
+    cell: vec2<u32>,
+    normal: u32,
+}
+
+fn trace_probe(probe: u32, ray: TraceRay, t_start: f32) -> ProbeAnswer {
+    cur_probe = probe;
+    ray_o = ray.origin - positions[probe].xyz;
+    ray_d = ray.direction;
+    ray_t_min = ray.t_min;
+    let sky = params.sky_distance * 0.999;
+    let b = dot(ray_o, ray_d);
+    let closest = ray_o - ray_d * b;
+    let h2 = dot(closest, closest);
+    var answer = ProbeAnswer(MISS, t_start, vec2<u32>(0u), 0u);
+    if (length(ray_o) >= sky) {
+        return answer;
+    }
+    let t_sky = -b + sqrt(max(sky * sky - h2, 0.0));
+    let t_end = min(ray.t_max, t_sky);
+    answer.t = t_end;
+    if (t_end <= t_start) {
+        answer.t = t_start;
+        return answer;
+    }
+    let segments = split_segments(ray_o, ray_d, t_start, t_end);
+    for (var i = 0u; i < segments.count; i++) {
+        let outcome = march_segment(segments.s[i]);
+        if (outcome.code != CONTINUE) {
+            return ProbeAnswer(outcome.code, outcome.t, outcome.cell, outcome.normal);
+        }
+    }
+    return answer;
+}
+
+// ---- selection (src/cpu/select.rs) ----
+
+struct Candidates {
+    probes: array<u32, 8>,
+    len: u32,
+}
+
+fn push_candidate(c: ptr<function, Candidates>, probe: u32) {
+    if (probe == NO_PROBE || (*c).len >= 8u) {
+        return;
+    }
+    for (var i = 0u; i < (*c).len; i++) {
+        if ((*c).probes[i] == probe) {
+            return;
+        }
+    }
+    (*c).probes[(*c).len] = probe;
+    (*c).len += 1u;
+}
+
+fn select_grid(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Candidates {
+    let g = params.grid;
+    let counts = vec3<u32>(g.count_x, g.count_y, g.count_z);
+    let max_corner = vec3<f32>(counts - vec3<u32>(2u));
+    let base = vec3<u32>(clamp(floor((position - g.origin) / g.spacing), vec3<f32>(0.0), max_corner));
+    var cage: array<u32, 8>;
+    var first = 0u;
+    var best = bitcast<f32>(0xff800000u);
+    var failed_slot = 8u;
+    for (var slot = 0u; slot < 8u; slot++) {
+        let c = base + vec3<u32>(slot & 1u, (slot >> 1u) & 1u, slot >> 2u);
+        let probe = c.x + counts.x * (c.y + counts.y * c.z);
+        cage[slot] = probe;
+        let d = position - (g.origin + vec3<f32>(c) * g.spacing);
+        var score = 1.0;
+        if (any(d != vec3<f32>(0.0))) {
+            score = dot(direction, normalize(d));
+        }
+        if (score > best) {
+            best = score;
+            first = slot;
+        }
+        if (probe == failed) {
+            failed_slot = slot;
+        }
+    }
+    var slot = first;
+    if (failed_slot < 8u) {
+        slot = (failed_slot + 3u) & 7u;
+    }
+    var out: Candidates;
+    out.len = 0u;
+    for (var i = 0u; i < 8u; i++) {
+        if (cage[slot] != failed) {
+            push_candidate(&out, cage[slot]);
+        }
+        slot = (slot + 3u) & 7u;
+    }
+    return out;
+}
+
+fn select_svo(position: vec3<f32>, failed: u32) -> Candidates {
+    let h = params.svo;
+    var size = h.size;
+    let p = clamp(position, h.origin, h.origin + vec3<f32>(size));
+    var lo = h.origin;
+    var index = params.svo_nodes;
+    var out: Candidates;
+    out.len = 0u;
+    for (var i = 0u; i <= 32u; i++) {
+        let word = words[index];
+        if ((word & SVO_LEAF_BIT) != 0u) {
+            let leaf = params.svo_leaves + 4u * (word & ~SVO_LEAF_BIT);
+            for (var k = 0u; k < 4u; k++) {
+                let probe = words[leaf + k];
+                if (probe != failed) {
+                    push_candidate(&out, probe);
+                }
+            }
+            return out;
+        }
+        size *= 0.5;
+        let mid = lo + vec3<f32>(size);
+        var child = 0u;
+        if (p.x >= mid.x) {
+            child |= 1u;
+            lo.x = mid.x;
+        }
+        if (p.y >= mid.y) {
+            child |= 2u;
+            lo.y = mid.y;
+        }
+        if (p.z >= mid.z) {
+            child |= 4u;
+            lo.z = mid.z;
+        }
+        index = params.svo_nodes + word + child;
+    }
+    return out;
+}
+
+fn select_voronoi(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Candidates {
+    var out: Candidates;
+    out.len = 0u;
+    var source_probe = failed;
+    if (failed == NO_PROBE) {
+        let first = nearest_probe(params.kd_nodes, params.kd_count, position);
+        if (first == NO_PROBE) {
+            return out;
+        }
+        push_candidate(&out, first);
+        source_probe = first;
+    }
+    let away = position - positions[source_probe].xyz;
+    var towards = direction;
+    if (dot(away, away) > 0.0) {
+        towards = away;
+    }
+    let n = params.neighbour_resolution;
+    let texel = texel_containing(n, towards);
+    let at = params.neighbour_table + ((source_probe * n + texel.y) * n + texel.x) * 4u;
+    for (var k = 0u; k < 4u; k++) {
+        push_candidate(&out, words[at + k]);
+    }
+    return out;
+}
+
+fn select_probes(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Candidates {
+    if (params.selector == SELECT_GRID) {
+        return select_grid(position, direction, failed);
+    }
+    if (params.selector == SELECT_SVO) {
+        return select_svo(position, failed);
+    }
+    return select_voronoi(position, direction, failed);
+}
+
+// ---- the ray (src/cpu/mod.rs trace_ray) ----
+
+fn radiance_at(probe: u32, cell: vec2<u32>) -> vec3<f32> {
+    let i = 3u * padded_index(params.resolution, probe, cell);
+    return vec3<f32>(radiance[i], radiance[i + 1u], radiance[i + 2u]);
+}
+
+fn trace_ray(ray: TraceRay) -> RayRecord {
+    fetches = 0u;
+    let origin = ray.origin;
+    let direction = ray.direction;
+    var t = ray.t_min;
+    var list = select_probes(origin + direction * t, direction, NO_PROBE);
+    var next = 0u;
+    var tried = 0u;
+    var fallback = NO_PROBE;
+    var record: RayRecord;
+    record.status = UNKNOWN;
+    record.probe = NO_PROBE;
+    record.normal = vec3<f32>(0.0);
+    record.radiance = vec3<f32>(0.0);
+    record.pad0 = 0u;
+    record.pad1 = 0u;
+    loop {
+        if (tried >= params.max_probes || next >= list.len) {
+            break;
+        }
+        let probe = list.probes[next];
+        tried += 1u;
+        if (fallback == NO_PROBE) {
+            fallback = probe;
+        }
+        let answer = trace_probe(probe, ray, t);
+        if (answer.code == HIT || answer.code == MISS) {
+            var cell = answer.cell;
+            var normal = vec3<f32>(0.0);
+            if (answer.code == HIT) {
+                normal = unpack_normal(answer.normal);
+            } else {
+                cell = texel_containing(params.resolution, direction);
+            }
+            fetches += 1u;
+            record.status = answer.code;
+            record.t = answer.t;
+            record.position = origin + direction * answer.t;
+            record.normal = normal;
+            record.radiance = radiance_at(probe, cell);
+            record.probe = probe;
+            record.probes_tried = tried;
+            record.texel_fetches = fetches;
+            return record;
+        }
+        if (answer.t > t) {
+            t = answer.t;
+            list = select_probes(origin + direction * t, direction, probe);
+            next = 0u;
+        } else {
+            next += 1u;
+        }
+    }
+    record.t = t;
+    record.position = origin + direction * t;
+    record.probes_tried = tried;
+    if (fallback != NO_PROBE) {
+        fetches += 1u;
+        record.radiance = radiance_at(fallback, texel_containing(params.resolution, direction));
+        record.probe = fallback;
+    }
+    record.texel_fetches = fetches;
+    return record;
+}
+
+@compute @workgroup_size(64)
+fn trace_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = id.y * params.threads_per_row + id.x;
+    if (index >= params.ray_count) {
+        return;
+    }
+    records[index] = trace_ray(rays[index]);
+}

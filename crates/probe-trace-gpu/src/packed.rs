@@ -1,0 +1,1026 @@
+//! Probe and selection data checked and flattened into the arrays both tracers read: the GPU
+//! uploads them as storage buffers, the CPU twin reads the same numbers.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use probe_index::{GridParams, NO_PROBE, SVO_LEAF_BIT, SvoHeader};
+use probe_octa::{FineRead, MinMaxPyramid, OctaLayout, OctaMap};
+
+use crate::error::UploadError;
+use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
+use crate::surface::{PYRAMID_MARGIN, pack_normal, texel_center, texel_surface, unpack_normal};
+
+/// Smallest and largest accepted light-field resolutions.
+pub(crate) const MIN_RESOLUTION: u32 = 8;
+pub(crate) const MAX_RESOLUTION: u32 = 4096;
+/// Most pyramid levels stored (level 0 is the full-resolution map itself).
+pub(crate) const MAX_LEVELS: usize = 16;
+
+/// Selector codes shared with the WGSL.
+pub(crate) const SELECT_GRID: u32 = 0;
+pub(crate) const SELECT_SVO: u32 = 1;
+pub(crate) const SELECT_VORONOI: u32 = 2;
+/// Interpolation codes shared with the WGSL.
+pub(crate) const INTERPOLATE_GRID: u32 = 0;
+pub(crate) const INTERPOLATE_DELAUNAY: u32 = 1;
+
+/// Words per uploaded tetrahedron (`probe_index::TetRecord`).
+pub(crate) const TET_WORDS: usize = 20;
+
+/// Padded texels of one probe's map.
+#[inline]
+pub(crate) fn padded_len(resolution: u32) -> usize {
+    let side = resolution as usize + 2;
+    side * side
+}
+
+/// Index of interior texel `(ix, iy)` of probe `probe` in a padded slice of such maps.
+#[inline]
+pub(crate) fn padded_index(resolution: u32, probe: u32, ix: u32, iy: u32) -> usize {
+    let side = resolution as usize + 2;
+    probe as usize * side * side + (iy as usize + 1) * side + ix as usize + 1
+}
+
+/// The light field in upload form.
+#[derive(Clone, Debug)]
+pub(crate) struct PackedField {
+    pub resolution: u32,
+    pub probe_count: u32,
+    pub sky_distance: f32,
+    pub thickness_scale: f32,
+    /// Probe centres (w unused).
+    pub positions: Vec<[f32; 4]>,
+    /// Per padded texel: radial distance bits (sign bit set on edge texels), packed normal,
+    /// near and far bound bits (see [`TexelBounds`]).
+    pub geometry: Vec<[u32; 4]>,
+    /// Pyramid levels `1..level_count`: per texel `(min near, max far)`, level `l` of probe `p`
+    /// at `level_offsets[l] + p·(N >> l)²`, row-major.
+    pub pyramid: Vec<[f32; 2]>,
+    /// Start of each level in `pyramid` (level 0 unused).
+    pub level_offsets: [u32; MAX_LEVELS],
+    /// Levels including level 0: `log2(N) + 1`.
+    pub level_count: u32,
+    /// Radiance, 3 floats per padded texel.
+    pub radiance: Vec<f32>,
+}
+
+fn check_finite(parameter: &'static str, values: &[Vec3]) -> Result<(), UploadError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(UploadError::NonFinite { parameter, index }),
+        None => Ok(()),
+    }
+}
+
+fn check_length(
+    parameter: &'static str,
+    expected: usize,
+    actual: usize,
+) -> Result<(), UploadError> {
+    if expected == actual {
+        Ok(())
+    } else {
+        Err(UploadError::LengthMismatch {
+            parameter,
+            expected,
+            actual,
+        })
+    }
+}
+
+/// Elements addressable by a `u32` index in WGSL.
+fn check_addressable(
+    buffer: &'static str,
+    elements: u64,
+    bytes_per_element: u64,
+) -> Result<(), UploadError> {
+    if elements > u64::from(u32::MAX) {
+        Err(UploadError::TooLarge {
+            buffer,
+            bytes: elements * bytes_per_element,
+            limit: u64::from(u32::MAX) * bytes_per_element,
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// Offsets of the 8 neighbours of a texel.
+const NEIGHBOURS: [(i32, i32); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
+
+/// Surfaces met at a cosine below this (about 76°) are too oblique for a texel's plane to
+/// place hits (seed 000 §4.2.1: a probe seeing a surface at a grazing angle is a poor
+/// candidate); the texel is flagged like a farther edge.
+pub(crate) const COS_TRUSTED: f32 = 0.25;
+
+/// The sign bit of an `f32`, used as a flag on values that are never negative.
+pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
+
+/// Per-texel depth bounds and edge flags of one probe, computed at upload.
+///
+/// A texel's surface is the plane through its stored point with its stored normal
+/// ([`crate::surface::texel_surface`]); `near` and `far` bound the depth of that patch
+/// (thickness included). The surface is not continuous across a texel when a neighbour (of
+/// the 8, across seams through the padding) sees sky where it does not, or when the two
+/// surfaces are stacked: the neighbour's point lies farther than the texel's thickness from the
+/// texel's plane, on the same side as the texel's point lies from the neighbour's plane (one
+/// surface occludes the other; a crease or a curved surface puts each point on the other side
+/// of the other's plane).
+///
+/// A texel with a **farther** neighbour shows an occluding edge: beyond it the cone holds the
+/// background, so its plane is trusted only to say "in front" — a crossing of the plane is not
+/// reported as a hit (the ray is handed on). Texels seen more obliquely than [`COS_TRUSTED`]
+/// are flagged the same way.
+///
+/// With `FieldOptions::conservative_edges`, also: a texel with a **nearer** neighbour (a
+/// foreground edge may intrude into its cone) gets that neighbour's `near` and leaves
+/// undecided any ray that reaches it; farther-edge texels widen `far` to the neighbour's; and
+/// all flags spread to the 8 neighbours of flagged texels (an edge can cut the corner of a
+/// cone whose neighbours all sample one surface).
+///
+/// Upload layout per texel: distance bits with the sign bit set for a farther edge, packed
+/// normal, `near` bits, `far` bits with the sign bit set for a nearer edge.
+pub(crate) struct TexelBounds {
+    resolution: u32,
+    /// Interior, row-major.
+    pub near: Vec<f32>,
+    pub far: Vec<f32>,
+    /// Padded, as uploaded.
+    pub packed: Vec<[u32; 4]>,
+}
+
+impl TexelBounds {
+    fn new(resolution: u32) -> Self {
+        let n2 = (resolution * resolution) as usize;
+        Self {
+            resolution,
+            near: vec![0.0; n2],
+            far: vec![0.0; n2],
+            packed: vec![[0; 4]; padded_len(resolution)],
+        }
+    }
+
+    /// Fills the bounds of one probe from its padded distance and normal maps.
+    #[allow(clippy::too_many_arguments)]
+    fn compute(
+        &mut self,
+        layout: &OctaLayout,
+        centers: &[Vec3],
+        distance: &[f32],
+        normals: &[Vec3],
+        sky: f32,
+        thickness_scale: f32,
+        conservative: bool,
+    ) {
+        let n = self.resolution;
+        let n2 = (n * n) as usize;
+        let mut surfaces = Vec::with_capacity(n2);
+        let mut points = Vec::with_capacity(n2);
+        let mut is_sky = Vec::with_capacity(n2);
+        let mut packed_normals = Vec::with_capacity(n2);
+        for iy in 0..n {
+            for ix in 0..n {
+                let i = (iy * n + ix) as usize;
+                let p = layout.interior_index(ix, iy);
+                let d = distance[p];
+                let packed = pack_normal(normals[p].normalize_or_zero());
+                let s = texel_surface(n, centers[i], d, unpack_normal(packed), thickness_scale);
+                is_sky.push(d >= sky);
+                points.push(centers[i] * d);
+                packed_normals.push(packed);
+                if d >= sky {
+                    self.near[i] = sky;
+                    self.far[i] = sky;
+                } else {
+                    self.near[i] = s.near;
+                    self.far[i] = s.far;
+                }
+                surfaces.push(s);
+            }
+        }
+        let (base_near, base_far) = (self.near.clone(), self.far.clone());
+        let mut flags = vec![(false, false); n2];
+        for iy in 0..n {
+            for ix in 0..n {
+                let i = (iy * n + ix) as usize;
+                let d = distance[layout.interior_index(ix, iy)];
+                let mut farther_edge = false;
+                let mut nearer_edge = false;
+                let mut near = base_near[i];
+                let mut far = base_far[i];
+                for (dx, dy) in NEIGHBOURS {
+                    let (px, py) = ((ix as i32 + 1 + dx) as u32, (iy as i32 + 1 + dy) as u32);
+                    let [sx, sy] = layout.border_source(px, py).unwrap_or([px, py]);
+                    let u = ((sy - 1) * n + (sx - 1)) as usize;
+                    let discontinuous = if is_sky[i] || is_sky[u] {
+                        is_sky[i] != is_sky[u]
+                    } else {
+                        // Stacked surfaces: each point lies on the same side of the other's
+                        // plane (an occlusion). A crease or a curved surface puts them on
+                        // opposite sides; a plane puts them within the thickness.
+                        let e = points[u] - points[i];
+                        let a = e.dot(surfaces[i].visible_normal);
+                        let b = e.dot(surfaces[u].visible_normal);
+                        a.abs() > surfaces[i].thickness && a * b > 0.0
+                    };
+                    if discontinuous {
+                        let du = distance[layout.interior_index(sx - 1, sy - 1)];
+                        if du >= d {
+                            farther_edge = true;
+                            if conservative {
+                                far = far.max(base_far[u]);
+                            }
+                        } else if conservative {
+                            nearer_edge = true;
+                            near = near.min(base_near[u]);
+                        }
+                    }
+                }
+                if !is_sky[i] && surfaces[i].cos_incidence < COS_TRUSTED {
+                    // Seen too obliquely for its plane to place a hit.
+                    farther_edge = true;
+                }
+                self.near[i] = near;
+                self.far[i] = far;
+                flags[i] = (farther_edge, nearer_edge);
+            }
+        }
+        // Conservative edges: dilate by one texel.
+        let (ring_near, ring_far) = (self.near.clone(), self.far.clone());
+        for iy in 0..n {
+            for ix in 0..n {
+                let i = (iy * n + ix) as usize;
+                let (mut farther_edge, mut nearer_edge) = flags[i];
+                let (mut near, mut far) = (ring_near[i], ring_far[i]);
+                for (dx, dy) in NEIGHBOURS {
+                    let (px, py) = ((ix as i32 + 1 + dx) as u32, (iy as i32 + 1 + dy) as u32);
+                    let [sx, sy] = layout.border_source(px, py).unwrap_or([px, py]);
+                    let u = ((sy - 1) * n + (sx - 1)) as usize;
+                    let (f, nr) = if conservative {
+                        flags[u]
+                    } else {
+                        (false, false)
+                    };
+                    if f && !is_sky[i] {
+                        farther_edge = true;
+                        far = far.max(ring_far[u]);
+                    }
+                    if nr {
+                        nearer_edge = true;
+                        near = near.min(ring_near[u]);
+                    }
+                }
+                self.near[i] = near;
+                self.far[i] = far;
+                let d = distance[layout.interior_index(ix, iy)];
+                let flag = |value: f32, on: bool| value.to_bits() | if on { SIGN_BIT } else { 0 };
+                self.packed[layout.interior_index(ix, iy)] = [
+                    flag(d, farther_edge),
+                    packed_normals[i],
+                    near.to_bits(),
+                    flag(far, nearer_edge),
+                ];
+            }
+        }
+        layout.pad(&mut self.packed).expect("sizes match");
+    }
+}
+
+impl PackedField {
+    /// Checks and packs a light field, building its pyramids.
+    pub fn new(field: &LightField<'_>, options: &FieldOptions) -> Result<Self, UploadError> {
+        let n = field.resolution;
+        if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&n) || !n.is_power_of_two() {
+            return Err(UploadError::Resolution {
+                parameter: "resolution",
+                value: n,
+                min: MIN_RESOLUTION,
+                max: MAX_RESOLUTION,
+            });
+        }
+        if !(field.sky_distance.is_finite() && field.sky_distance > 0.0) {
+            return Err(UploadError::BadParameter {
+                parameter: "sky_distance",
+                value: field.sky_distance,
+                requirement: "it must be finite and > 0",
+            });
+        }
+        let thickness = options.thickness_scale;
+        if !(thickness.is_finite() && thickness >= 0.0) {
+            return Err(UploadError::BadParameter {
+                parameter: "thickness_scale",
+                value: thickness,
+                requirement: "it must be finite and >= 0",
+            });
+        }
+        let probes = field.positions.len();
+        if probes == 0 {
+            return Err(UploadError::NoProbes);
+        }
+        let per_probe = padded_len(n);
+        check_addressable("radiance", probes as u64 * per_probe as u64 * 3, 4)?;
+        let texels = probes * per_probe;
+        check_length("radial_distance", texels, field.radial_distance.len())?;
+        check_length("normals", texels, field.normals.len())?;
+        check_length("radiance", texels, field.radiance.len())?;
+        check_finite("positions", field.positions)?;
+        check_finite("normals", field.normals)?;
+        check_finite("radiance", field.radiance)?;
+        for (index, &d) in field.radial_distance.iter().enumerate() {
+            if !d.is_finite() {
+                return Err(UploadError::NonFinite {
+                    parameter: "radial_distance",
+                    index,
+                });
+            }
+            if d < 0.0 {
+                return Err(UploadError::NegativeDistance { index, value: d });
+            }
+        }
+
+        let radiance: Vec<f32> = field.radiance.iter().flat_map(|c| c.to_array()).collect();
+        let sky = field.sky_distance;
+        let layout = OctaLayout::new(n).expect("resolution checked");
+        let centers: Vec<Vec3> = (0..n * n)
+            .map(|i| probe_octa::decode(texel_center(n, i % n, i / n)))
+            .collect();
+        let mut geometry = vec![[0u32; 4]; texels];
+        let level_count = n.trailing_zeros() + 1;
+        let mut level_offsets = [0u32; MAX_LEVELS];
+        let mut total = 0usize;
+        for (level, offset) in level_offsets
+            .iter_mut()
+            .enumerate()
+            .take(level_count as usize)
+            .skip(1)
+        {
+            *offset = total as u32;
+            let side = (n >> level) as usize;
+            total += probes * side * side;
+        }
+        let mut pyramid = vec![[0.0f32; 2]; total];
+        let mut texel_bounds = TexelBounds::new(n);
+        for probe in 0..probes {
+            let range = probe * per_probe..(probe + 1) * per_probe;
+            texel_bounds.compute(
+                &layout,
+                &centers,
+                &field.radial_distance[range.clone()],
+                &field.normals[range.clone()],
+                sky,
+                thickness,
+                options.conservative_edges,
+            );
+            for (i, out) in geometry[range].iter_mut().enumerate() {
+                *out = texel_bounds.packed[i];
+            }
+            let near_map = OctaMap::from_interior(n, &texel_bounds.near).expect("sizes match");
+            let far_map = OctaMap::from_interior(n, &texel_bounds.far).expect("sizes match");
+            let near_pyramid = MinMaxPyramid::build(&near_map, FineRead::Nearest, level_count)
+                .expect("power of two");
+            let far_pyramid = MinMaxPyramid::build(&far_map, FineRead::Nearest, level_count)
+                .expect("power of two");
+            for (level, &offset) in level_offsets
+                .iter()
+                .enumerate()
+                .take(level_count as usize)
+                .skip(1)
+            {
+                let side = (n >> level) as usize;
+                let start = offset as usize + probe * side * side;
+                let mins = near_pyramid.level(level).expect("level built");
+                let maxs = far_pyramid.level(level).expect("level built");
+                for (k, out) in pyramid[start..start + side * side].iter_mut().enumerate() {
+                    let lo = mins[k].x;
+                    let hi = maxs[k].y;
+                    *out = [
+                        lo - lo.abs() * PYRAMID_MARGIN,
+                        hi + hi.abs() * PYRAMID_MARGIN,
+                    ];
+                }
+            }
+        }
+        Ok(Self {
+            resolution: n,
+            probe_count: probes as u32,
+            sky_distance: sky,
+            thickness_scale: thickness,
+            positions: field
+                .positions
+                .iter()
+                .map(|p| [p.x, p.y, p.z, 0.0])
+                .collect(),
+            geometry,
+            pyramid,
+            level_offsets,
+            level_count,
+            radiance,
+        })
+    }
+
+    /// Probe centre.
+    #[inline]
+    pub fn position(&self, probe: u32) -> Vec3 {
+        let p = self.positions[probe as usize];
+        Vec3::new(p[0], p[1], p[2])
+    }
+}
+
+/// Selection data in upload form: parameters plus one word array holding whichever of the
+/// octree nodes and payloads, k-d tree nodes and neighbour table the selector needs.
+#[derive(Clone, Debug)]
+pub(crate) struct PackedSelection {
+    pub kind: u32,
+    pub grid: GridParams,
+    pub svo: SvoHeader,
+    pub words: Vec<u32>,
+    pub svo_nodes: u32,
+    pub svo_leaves: u32,
+    pub kd_nodes: u32,
+    pub kd_count: u32,
+    pub neighbour_table: u32,
+    pub neighbour_resolution: u32,
+}
+
+fn check_probe(selection: &'static str, probe: u32, probe_count: usize) -> Result<(), UploadError> {
+    if probe != NO_PROBE && probe as usize >= probe_count {
+        Err(UploadError::ProbeOutOfRange {
+            selection,
+            probe,
+            probe_count,
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// Appends k-d tree nodes (position bits, probe) to `words`; returns their start.
+fn push_kd_nodes(
+    words: &mut Vec<u32>,
+    nodes: &[probe_index::KdNode],
+    selection: &'static str,
+    probe_count: usize,
+) -> Result<u32, UploadError> {
+    let start = words.len() as u32;
+    for node in nodes {
+        check_probe(selection, node.probe, probe_count)?;
+        words.extend(node.position.iter().map(|c| c.to_bits()));
+        words.push(node.probe);
+    }
+    Ok(start)
+}
+
+impl PackedSelection {
+    /// Checks a selection against the number of probes and packs it.
+    pub fn new(selection: &ProbeSelection<'_>, probe_count: usize) -> Result<Self, UploadError> {
+        let mut packed = PackedSelection {
+            kind: SELECT_GRID,
+            grid: GridParams::zeroed(),
+            svo: SvoHeader::zeroed(),
+            words: Vec::new(),
+            svo_nodes: 0,
+            svo_leaves: 0,
+            kd_nodes: 0,
+            kd_count: 0,
+            neighbour_table: 0,
+            neighbour_resolution: 0,
+        };
+        match selection {
+            ProbeSelection::Grid(grid) => {
+                if grid.probe_count() != probe_count {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "grid",
+                        expected: probe_count,
+                        actual: grid.probe_count(),
+                    });
+                }
+                packed.kind = SELECT_GRID;
+                packed.grid = grid.gpu_params();
+            }
+            ProbeSelection::SparseVoxelOctree(svo) => {
+                packed.kind = SELECT_SVO;
+                packed.svo = *svo.header();
+                let nodes = svo.nodes();
+                let leaves = svo.leaves();
+                for word in nodes {
+                    let bad = if word & SVO_LEAF_BIT != 0 {
+                        (word & !SVO_LEAF_BIT) as usize >= leaves.len()
+                    } else {
+                        *word as usize + 8 > nodes.len()
+                    };
+                    if bad {
+                        return Err(UploadError::ProbeCountMismatch {
+                            selection: "sparse voxel octree (a node points past the tree)",
+                            expected: nodes.len(),
+                            actual: *word as usize,
+                        });
+                    }
+                }
+                for leaf in leaves {
+                    for &probe in leaf {
+                        check_probe("sparse voxel octree", probe, probe_count)?;
+                    }
+                }
+                check_addressable("selection", nodes.len() as u64 + 4 * leaves.len() as u64, 4)?;
+                packed.svo_nodes = 0;
+                packed.words.extend_from_slice(nodes);
+                packed.svo_leaves = packed.words.len() as u32;
+                packed.words.extend(leaves.iter().flatten());
+            }
+            ProbeSelection::Voronoi {
+                nearest,
+                neighbours,
+            } => {
+                if neighbours.probe_count() != probe_count {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "Voronoi neighbour maps",
+                        expected: probe_count,
+                        actual: neighbours.probe_count(),
+                    });
+                }
+                if nearest.nodes().len() != probe_count {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "nearest-probe tree",
+                        expected: probe_count,
+                        actual: nearest.nodes().len(),
+                    });
+                }
+                for &probe in neighbours.table() {
+                    check_probe("Voronoi neighbour maps", probe, probe_count)?;
+                }
+                check_addressable(
+                    "selection",
+                    4 * nearest.nodes().len() as u64 + neighbours.table().len() as u64,
+                    4,
+                )?;
+                packed.kind = SELECT_VORONOI;
+                packed.kd_nodes = push_kd_nodes(
+                    &mut packed.words,
+                    nearest.nodes(),
+                    "nearest-probe tree",
+                    probe_count,
+                )?;
+                packed.kd_count = nearest.nodes().len() as u32;
+                packed.neighbour_table = packed.words.len() as u32;
+                packed.neighbour_resolution = neighbours.resolution();
+                packed.words.extend_from_slice(neighbours.table());
+            }
+        }
+        if packed.words.is_empty() {
+            packed.words.push(0);
+        }
+        Ok(packed)
+    }
+}
+
+/// Irradiance and moment maps plus interpolation data in upload form.
+#[derive(Clone, Debug)]
+pub(crate) struct PackedIrradiance {
+    pub probe_count: u32,
+    pub positions: Vec<[f32; 4]>,
+    pub irradiance_resolution: u32,
+    pub moments_resolution: u32,
+    /// 3 floats per padded texel.
+    pub irradiance: Vec<f32>,
+    pub moments: Vec<[f32; 2]>,
+    pub kind: u32,
+    pub grid: GridParams,
+    /// Tetrahedra (20 words each), then a tetrahedron per probe, then k-d tree nodes.
+    pub words: Vec<u32>,
+    pub tets: u32,
+    pub tet_count: u32,
+    pub vertex_tets: u32,
+    pub kd_nodes: u32,
+    pub kd_count: u32,
+}
+
+/// Largest irradiance or moment map resolution accepted.
+const MAX_LOW_RESOLUTION: u32 = 256;
+
+impl PackedIrradiance {
+    /// Checks and packs irradiance data.
+    pub fn new(
+        field: &IrradianceField<'_>,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<Self, UploadError> {
+        let probes = field.positions.len();
+        if probes == 0 {
+            return Err(UploadError::NoProbes);
+        }
+        for (parameter, value) in [
+            ("irradiance_resolution", field.irradiance_resolution),
+            ("moments_resolution", field.moments_resolution),
+        ] {
+            if !(1..=MAX_LOW_RESOLUTION).contains(&value) {
+                return Err(UploadError::Resolution {
+                    parameter,
+                    value,
+                    min: 1,
+                    max: MAX_LOW_RESOLUTION,
+                });
+            }
+        }
+        check_finite("positions", field.positions)?;
+        check_length(
+            "irradiance",
+            probes * padded_len(field.irradiance_resolution),
+            field.irradiance.len(),
+        )?;
+        check_length(
+            "moments",
+            probes * padded_len(field.moments_resolution),
+            field.moments.len(),
+        )?;
+        check_finite("irradiance", field.irradiance)?;
+        if let Some(index) = field.moments.iter().position(|m| !m.is_finite()) {
+            return Err(UploadError::NonFinite {
+                parameter: "moments",
+                index,
+            });
+        }
+        let mut packed = PackedIrradiance {
+            probe_count: probes as u32,
+            positions: field
+                .positions
+                .iter()
+                .map(|p| [p.x, p.y, p.z, 0.0])
+                .collect(),
+            irradiance_resolution: field.irradiance_resolution,
+            moments_resolution: field.moments_resolution,
+            irradiance: field.irradiance.iter().flat_map(|c| c.to_array()).collect(),
+            moments: field.moments.iter().map(|m| m.to_array()).collect(),
+            kind: INTERPOLATE_GRID,
+            grid: GridParams::zeroed(),
+            words: Vec::new(),
+            tets: 0,
+            tet_count: 0,
+            vertex_tets: 0,
+            kd_nodes: 0,
+            kd_count: 0,
+        };
+        match interpolation {
+            Interpolation::Grid(grid) => {
+                if grid.probe_count() != probes {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "grid",
+                        expected: probes,
+                        actual: grid.probe_count(),
+                    });
+                }
+                packed.grid = grid.gpu_params();
+            }
+            Interpolation::Delaunay(tets) => {
+                if tets.points().len() != probes {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "tetrahedralization",
+                        expected: probes,
+                        actual: tets.points().len(),
+                    });
+                }
+                let records = tets.tetrahedra();
+                check_addressable(
+                    "interpolation",
+                    (records.len() * TET_WORDS + 5 * probes) as u64,
+                    4,
+                )?;
+                packed.kind = INTERPOLATE_DELAUNAY;
+                packed.tets = 0;
+                packed.tet_count = records.len() as u32;
+                for record in records {
+                    for &v in &record.vertices {
+                        check_probe("tetrahedralization", v, probes)?;
+                    }
+                    packed
+                        .words
+                        .extend_from_slice(bytemuck::cast_slice(std::slice::from_ref(record)));
+                }
+                packed.vertex_tets = packed.words.len() as u32;
+                packed
+                    .words
+                    .extend((0..probes).map(|i| tets.tetrahedron_of_vertex(i)));
+                let nearest = probe_index::NearestProbe::new(field.positions);
+                packed.kd_nodes = push_kd_nodes(
+                    &mut packed.words,
+                    nearest.nodes(),
+                    "nearest-probe tree",
+                    probes,
+                )?;
+                packed.kd_count = nearest.nodes().len() as u32;
+            }
+        }
+        if packed.words.is_empty() {
+            packed.words.push(0);
+        }
+        Ok(packed)
+    }
+}
+
+/// The trace pass's uniform block (240 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(crate) struct TraceParams {
+    pub resolution: u32,
+    pub probe_count: u32,
+    pub ray_count: u32,
+    pub threads_per_row: u32,
+    pub method: u32,
+    pub top_level: u32,
+    pub coarse_level: u32,
+    pub max_probes: u32,
+    pub selector: u32,
+    pub back_face_rejection: u32,
+    pub level_count: u32,
+    pub max_steps: u32,
+    pub sky_distance: f32,
+    pub thickness_scale: f32,
+    pub pad0: [u32; 2],
+    pub level_offsets: [[u32; 4]; 4],
+    pub grid: GridParams,
+    pub svo: SvoHeader,
+    pub svo_nodes: u32,
+    pub svo_leaves: u32,
+    pub kd_nodes: u32,
+    pub kd_count: u32,
+    pub neighbour_table: u32,
+    pub neighbour_resolution: u32,
+    pub pad1: [u32; 2],
+}
+
+/// The diffuse pass's uniform block (112 bytes). WGSL mirror `DiffuseParams` in
+/// `gpu/diffuse.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub(crate) struct DiffuseParams {
+    pub point_count: u32,
+    pub threads_per_row: u32,
+    pub probe_count: u32,
+    pub interpolation: u32,
+    pub irradiance_resolution: u32,
+    pub moments_resolution: u32,
+    pub visibility: u32,
+    pub max_walk_steps: u32,
+    pub normal_bias: f32,
+    pub pad0: [u32; 3],
+    pub grid: GridParams,
+    pub tets: u32,
+    pub tet_count: u32,
+    pub vertex_tets: u32,
+    pub kd_nodes: u32,
+    pub kd_count: u32,
+    pub pad1: [u32; 3],
+}
+
+/// Method codes shared with the WGSL.
+pub(crate) const METHOD_HIZ: u32 = 0;
+pub(crate) const METHOD_TWO_LEVEL: u32 = 1;
+
+/// Most single-probe traces per ray an option may ask for.
+pub(crate) const MAX_PROBES_PER_RAY: u32 = 64;
+
+/// Checks trace options and turns them into the uniform block both tracers read.
+pub(crate) fn trace_params(
+    field: &PackedField,
+    selection: &PackedSelection,
+    options: &crate::ray::TraceOptions,
+) -> Result<TraceParams, crate::error::TraceError> {
+    use crate::error::TraceError;
+    use crate::ray::TraceMethod;
+    if !(1..=MAX_PROBES_PER_RAY).contains(&options.max_probes) {
+        return Err(TraceError::BadOption {
+            option: "max_probes",
+            value: f64::from(options.max_probes),
+            requirement: "it must be from 1 to 64",
+        });
+    }
+    if options.coarse_downsample == 0 || !options.coarse_downsample.is_power_of_two() {
+        return Err(TraceError::BadOption {
+            option: "coarse_downsample",
+            value: f64::from(options.coarse_downsample),
+            requirement: "it must be a power of two (1 disables the coarse level)",
+        });
+    }
+    let top = field.level_count - 1;
+    let mut level_offsets = [[0u32; 4]; 4];
+    for (i, &offset) in field.level_offsets.iter().enumerate() {
+        level_offsets[i / 4][i % 4] = offset;
+    }
+    Ok(TraceParams {
+        resolution: field.resolution,
+        probe_count: field.probe_count,
+        ray_count: 0,
+        threads_per_row: 0,
+        method: match options.method {
+            TraceMethod::HiZ => METHOD_HIZ,
+            TraceMethod::TwoLevel => METHOD_TWO_LEVEL,
+        },
+        top_level: options.hiz_top_level.min(top),
+        coarse_level: options.coarse_downsample.trailing_zeros().min(top),
+        max_probes: options.max_probes,
+        selector: selection.kind,
+        back_face_rejection: u32::from(options.back_face_rejection),
+        level_count: field.level_count,
+        // Cells a segment can visit: at most 2N at full resolution, and per full-resolution
+        // cell at most two visits per level on the way up and down.
+        max_steps: 4 * field.resolution * field.level_count + 64,
+        sky_distance: field.sky_distance,
+        thickness_scale: field.thickness_scale,
+        pad0: [0; 2],
+        level_offsets,
+        grid: selection.grid,
+        svo: selection.svo,
+        svo_nodes: selection.svo_nodes,
+        svo_leaves: selection.svo_leaves,
+        kd_nodes: selection.kd_nodes,
+        kd_count: selection.kd_count,
+        neighbour_table: selection.neighbour_table,
+        neighbour_resolution: selection.neighbour_resolution,
+        pad1: [0; 2],
+    })
+}
+
+/// Checks rays and normalises their directions.
+pub(crate) fn prepare_rays(
+    rays: &[crate::ray::TraceRay],
+) -> Result<Vec<crate::ray::TraceRay>, crate::error::TraceError> {
+    use crate::error::TraceError;
+    let bad = |index, reason| TraceError::BadInput {
+        item: "ray",
+        index,
+        reason,
+    };
+    rays.iter()
+        .enumerate()
+        .map(|(index, ray)| {
+            let origin = Vec3::from(ray.origin);
+            let direction = Vec3::from(ray.direction);
+            if !origin.is_finite() {
+                return Err(bad(index, "the origin is not finite"));
+            }
+            if !direction.is_finite() {
+                return Err(bad(index, "the direction is not finite"));
+            }
+            let unit = direction.normalize_or_zero();
+            if unit == Vec3::ZERO {
+                return Err(bad(index, "the direction is zero"));
+            }
+            if !(ray.t_min >= 0.0 && ray.t_min.is_finite() && ray.t_max >= ray.t_min) {
+                return Err(bad(
+                    index,
+                    "the range is not 0 <= t_min <= t_max with t_min finite",
+                ));
+            }
+            Ok(crate::ray::TraceRay {
+                direction: unit.to_array(),
+                ..*ray
+            })
+        })
+        .collect()
+}
+
+/// Checks shading points and normalises their normals.
+pub(crate) fn prepare_points(
+    points: &[crate::ray::ShadingPoint],
+) -> Result<Vec<crate::ray::ShadingPoint>, crate::error::TraceError> {
+    use crate::error::TraceError;
+    points
+        .iter()
+        .enumerate()
+        .map(|(index, point)| {
+            let position = Vec3::from(point.position);
+            let normal = Vec3::from(point.normal);
+            let unit = normal.normalize_or_zero();
+            if !position.is_finite() || !normal.is_finite() || unit == Vec3::ZERO {
+                return Err(TraceError::BadInput {
+                    item: "shading point",
+                    index,
+                    reason: "the position must be finite and the normal finite and non-zero",
+                });
+            }
+            Ok(crate::ray::ShadingPoint::new(position, unit))
+        })
+        .collect()
+}
+
+/// Checks diffuse options and turns them into the uniform block both shaders read.
+pub(crate) fn diffuse_params(
+    irradiance: &PackedIrradiance,
+    options: &crate::ray::DiffuseOptions,
+) -> Result<DiffuseParams, crate::error::TraceError> {
+    if !(options.normal_bias.is_finite() && options.normal_bias >= 0.0) {
+        return Err(crate::error::TraceError::BadOption {
+            option: "normal_bias",
+            value: f64::from(options.normal_bias),
+            requirement: "it must be finite and >= 0",
+        });
+    }
+    Ok(DiffuseParams {
+        point_count: 0,
+        threads_per_row: 0,
+        probe_count: irradiance.probe_count,
+        interpolation: irradiance.kind,
+        irradiance_resolution: irradiance.irradiance_resolution,
+        moments_resolution: irradiance.moments_resolution,
+        visibility: u32::from(options.visibility),
+        // The walk starts in a tetrahedron of the nearest probe, so it is short; the cap only
+        // guards against cycling on degenerate (cospherical) configurations.
+        max_walk_steps: 1024,
+        normal_bias: options.normal_bias,
+        pad0: [0; 3],
+        grid: irradiance.grid,
+        tets: irradiance.tets,
+        tet_count: irradiance.tet_count,
+        vertex_tets: irradiance.vertex_tets,
+        kd_nodes: irradiance.kd_nodes,
+        kd_count: irradiance.kd_count,
+        pad1: [0; 3],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Distance and inward normal of the box room `[lo, hi]` seen from `p` along `d`.
+    fn box_room(p: Vec3, d: Vec3, lo: Vec3, hi: Vec3) -> (f32, Vec3) {
+        let mut best = (f32::INFINITY, Vec3::ZERO);
+        for axis in 0..3 {
+            if d[axis] > 0.0 {
+                let t = (hi[axis] - p[axis]) / d[axis];
+                if t < best.0 {
+                    let mut n = Vec3::ZERO;
+                    n[axis] = -1.0;
+                    best = (t, n);
+                }
+            } else if d[axis] < 0.0 {
+                let t = (lo[axis] - p[axis]) / d[axis];
+                if t < best.0 {
+                    let mut n = Vec3::ZERO;
+                    n[axis] = 1.0;
+                    best = (t, n);
+                }
+            }
+        }
+        best
+    }
+
+    /// Flag counts (farther, nearer) of one probe in a box room.
+    fn flags_in_room(p: Vec3, n: u32) -> (usize, usize, usize) {
+        let (lo, hi) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0));
+        let layout = OctaLayout::new(n).unwrap();
+        let mut distance = vec![0.0; layout.padded_len()];
+        let mut normals = vec![Vec3::ZERO; layout.padded_len()];
+        let mut grazing = 0;
+        for iy in 0..n {
+            for ix in 0..n {
+                let d = layout.texel_direction(ix, iy);
+                let (t, nn) = box_room(p, d, lo, hi);
+                distance[layout.interior_index(ix, iy)] = t;
+                normals[layout.interior_index(ix, iy)] = nn;
+                if nn.dot(d).abs() < COS_TRUSTED {
+                    grazing += 1;
+                }
+            }
+        }
+        layout.pad(&mut distance).unwrap();
+        layout.pad(&mut normals).unwrap();
+        let centers: Vec<Vec3> = (0..n * n)
+            .map(|i| probe_octa::decode(texel_center(n, i % n, i / n)))
+            .collect();
+        let mut bounds = TexelBounds::new(n);
+        bounds.compute(&layout, &centers, &distance, &normals, 100.0, 1.0, false);
+        let farther = bounds
+            .packed
+            .iter()
+            .filter(|t| t[0] & SIGN_BIT != 0)
+            .count();
+        let nearer = bounds
+            .packed
+            .iter()
+            .filter(|t| t[3] & SIGN_BIT != 0)
+            .count();
+        (farther, nearer, grazing)
+    }
+
+    /// Creases (the room's corners) are continuous: a probe in a box room has no edge
+    /// texels beyond those seeing walls obliquely.
+    #[test]
+    fn room_corners_are_not_edges() {
+        for p in [
+            Vec3::new(0.0, 1.5, 0.0),
+            Vec3::new(-0.3, 1.2, -0.3),
+            Vec3::new(1.5, 0.4, -1.2),
+        ] {
+            let (farther, nearer, grazing) = flags_in_room(p, 64);
+            eprintln!("{p}: {farther} farther, {nearer} nearer, {grazing} grazing");
+            assert_eq!(nearer, 0, "{p}");
+        }
+    }
+}

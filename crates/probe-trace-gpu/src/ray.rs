@@ -1,0 +1,318 @@
+//! Rays in, results out, and the options of a trace.
+
+use std::time::Duration;
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// A ray to trace: `origin + t·direction` for `t_min <= t <= t_max` (32 bytes). WGSL mirror:
+///
+/// ```wgsl
+/// struct TraceRay { origin: vec3<f32>, t_min: f32, direction: vec3<f32>, t_max: f32 }
+/// ```
+///
+/// The direction need not be unit length: the tracers normalise it, so `t` is a distance.
+/// `t_max` may be infinite.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct TraceRay {
+    /// Start point, world space.
+    pub origin: [f32; 3],
+    /// Smallest `t` considered (>= 0).
+    pub t_min: f32,
+    /// Direction (normalised by the tracer).
+    pub direction: [f32; 3],
+    /// Largest `t` considered (may be `f32::INFINITY`).
+    pub t_max: f32,
+}
+
+impl TraceRay {
+    /// A ray over `[0, ∞)`.
+    pub fn new(origin: Vec3, direction: Vec3) -> Self {
+        Self::with_range(origin, direction, 0.0, f32::INFINITY)
+    }
+
+    /// A ray over `[t_min, t_max]`.
+    pub fn with_range(origin: Vec3, direction: Vec3, t_min: f32, t_max: f32) -> Self {
+        Self {
+            origin: origin.to_array(),
+            t_min,
+            direction: direction.to_array(),
+            t_max,
+        }
+    }
+}
+
+/// What a probe trace concluded about a ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayStatus {
+    /// A probe saw the surface the ray hits: `t`, position, normal and radiance are its.
+    Hit,
+    /// A probe saw the whole rest of the ray pass in front of everything it captured, out to
+    /// the ray's `t_max` or to its sky distance: radiance is that probe's texel in the ray's
+    /// direction (its sky).
+    Miss,
+    /// No probe tried could see the whole ray (the cap on probes was reached or the selection
+    /// ran out). The fallback of seed 003 §5.4: radiance is the first probe tried used as an
+    /// environment map in the ray's direction; `t` and position mark how far the ray was
+    /// verified empty; the normal is zero.
+    Unknown,
+}
+
+impl RayStatus {
+    /// The status code the shaders write (0 hit, 1 miss, 2 unknown).
+    pub(crate) fn from_code(code: u32) -> Self {
+        match code {
+            0 => RayStatus::Hit,
+            1 => RayStatus::Miss,
+            _ => RayStatus::Unknown,
+        }
+    }
+}
+
+/// The result of tracing one ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayResult {
+    /// Hit, miss or unknown.
+    pub status: RayStatus,
+    /// Ray parameter of the hit (Hit); where the answering probe's check ended, the ray's
+    /// `t_max` or just inside the probe's sky distance (Miss); how far the ray was verified
+    /// empty (Unknown). Always finite.
+    pub t: f32,
+    /// `origin + t·direction`.
+    pub position: Vec3,
+    /// The stored surface normal at the hit (zero unless Hit).
+    pub normal: Vec3,
+    /// Radiance the answering probe stored for the hit point (Hit), its sky (Miss), or the
+    /// environment-map fallback (Unknown).
+    pub radiance: Vec3,
+    /// The probe that answered (Hit, Miss) or gave the fallback radiance (Unknown); `None`
+    /// when no probe was tried.
+    pub probe: Option<u32>,
+    /// Single-probe traces run for this ray.
+    pub probes_tried: u32,
+    /// Texel fetches made for this ray (see the crate documentation for what counts).
+    pub texel_fetches: u32,
+}
+
+/// The per-ray record the shaders write (64 bytes). WGSL mirror:
+///
+/// ```wgsl
+/// struct RayRecord {
+///     position: vec3<f32>, t: f32,
+///     normal: vec3<f32>, status: u32,
+///     radiance: vec3<f32>, probe: u32,
+///     probes_tried: u32, texel_fetches: u32, pad0: u32, pad1: u32,
+/// }
+/// ```
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub(crate) struct RayRecord {
+    pub position: [f32; 3],
+    pub t: f32,
+    pub normal: [f32; 3],
+    pub status: u32,
+    pub radiance: [f32; 3],
+    pub probe: u32,
+    pub probes_tried: u32,
+    pub texel_fetches: u32,
+    pub pad: [u32; 2],
+}
+
+impl From<RayRecord> for RayResult {
+    fn from(r: RayRecord) -> Self {
+        RayResult {
+            status: RayStatus::from_code(r.status),
+            t: r.t,
+            position: Vec3::from(r.position),
+            normal: Vec3::from(r.normal),
+            radiance: Vec3::from(r.radiance),
+            probe: (r.probe != u32::MAX).then_some(r.probe),
+            probes_tried: r.probes_tried,
+            texel_fetches: r.texel_fetches,
+        }
+    }
+}
+
+/// The single-probe trace over a probe's octahedral segments.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TraceMethod {
+    /// Hierarchical: walk the min/max pyramid, going up a level after each texel the ray passes
+    /// in front of, down where it may meet a surface (seed 000 §4.3, after Uludag 2014).
+    #[default]
+    HiZ,
+    /// McGuire et al. 2017: a DDA over a low-resolution minimum-distance level finds texels
+    /// where the ray may meet a surface; a fine march over the full-resolution texels inside
+    /// each such texel decides.
+    TwoLevel,
+}
+
+impl TraceMethod {
+    /// `"hiz"` or `"two-level"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            TraceMethod::HiZ => "hiz",
+            TraceMethod::TwoLevel => "two-level",
+        }
+    }
+}
+
+/// Options of one trace call.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceOptions {
+    /// Hi-Z or two-level.
+    pub method: TraceMethod,
+    /// Hi-Z: the coarsest pyramid level used, counted above full resolution (seed 000 limits
+    /// hi-Z to 6–7 levels). Clamped to the levels the resolution has. Default 6.
+    pub hiz_top_level: u32,
+    /// Two-level: how many full-resolution texels per side one low-resolution texel covers
+    /// (McGuire 2017: 16, 1024² → 64²); a power of two, clamped to the resolution. Default 16.
+    pub coarse_downsample: u32,
+    /// Most single-probe traces per ray (1..=64). Default 8, one cage.
+    pub max_probes: u32,
+    /// Reject hits on surfaces facing away from the ray (seed 003 §7.2). Default true.
+    pub back_face_rejection: bool,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        Self {
+            method: TraceMethod::HiZ,
+            hiz_top_level: 6,
+            coarse_downsample: 16,
+            max_probes: 8,
+            back_face_rejection: true,
+        }
+    }
+}
+
+/// Timings of one call.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Timing {
+    /// Wall-clock time of the whole call (upload of rays, dispatch, read-back).
+    pub wall: Duration,
+    /// Time between the compute passes' start and end timestamps, summed over dispatches, when
+    /// the device supports timestamp queries (`None` otherwise, and always for the CPU tracer).
+    pub gpu: Option<Duration>,
+}
+
+/// Figures over many results: what the CLI prints.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraceSummary {
+    /// Rays traced.
+    pub rays: usize,
+    /// Rays answered Hit.
+    pub hits: usize,
+    /// Rays answered Miss.
+    pub misses: usize,
+    /// Rays left Unknown.
+    pub unknown: usize,
+    /// Mean texel fetches per ray.
+    pub fetches_per_ray: f64,
+    /// Mean single-probe traces per ray.
+    pub probes_per_ray: f64,
+}
+
+impl TraceSummary {
+    /// Counts and means over `results`.
+    pub fn of(results: &[RayResult]) -> Self {
+        let mut s = TraceSummary {
+            rays: results.len(),
+            ..TraceSummary::default()
+        };
+        let (mut fetches, mut probes) = (0u64, 0u64);
+        for r in results {
+            match r.status {
+                RayStatus::Hit => s.hits += 1,
+                RayStatus::Miss => s.misses += 1,
+                RayStatus::Unknown => s.unknown += 1,
+            }
+            fetches += u64::from(r.texel_fetches);
+            probes += u64::from(r.probes_tried);
+        }
+        if !results.is_empty() {
+            s.fetches_per_ray = fetches as f64 / results.len() as f64;
+            s.probes_per_ray = probes as f64 / results.len() as f64;
+        }
+        s
+    }
+
+    /// Share of rays answered (Hit or Miss), in `[0, 1]`.
+    pub fn answered_rate(&self) -> f64 {
+        if self.rays == 0 {
+            0.0
+        } else {
+            (self.hits + self.misses) as f64 / self.rays as f64
+        }
+    }
+
+    /// Share of rays answered Hit, in `[0, 1]`.
+    pub fn hit_rate(&self) -> f64 {
+        if self.rays == 0 {
+            0.0
+        } else {
+            self.hits as f64 / self.rays as f64
+        }
+    }
+}
+
+/// A point to shade diffusely (32 bytes). WGSL mirror:
+///
+/// ```wgsl
+/// struct ShadingPoint { position: vec3<f32>, pad0: f32, normal: vec3<f32>, pad1: f32 }
+/// ```
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct ShadingPoint {
+    /// Surface point, world space.
+    pub position: [f32; 3],
+    /// Padding.
+    pub pad0: f32,
+    /// Unit surface normal (normalised by the shader).
+    pub normal: [f32; 3],
+    /// Padding.
+    pub pad1: f32,
+}
+
+impl ShadingPoint {
+    /// A shading point.
+    pub fn new(position: Vec3, normal: Vec3) -> Self {
+        Self {
+            position: position.to_array(),
+            pad0: 0.0,
+            normal: normal.to_array(),
+            pad1: 0.0,
+        }
+    }
+}
+
+/// Options of diffuse shading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DiffuseOptions {
+    /// Multiply each probe's weight by the Chebyshev visibility weight of its distance moments,
+    /// cubed (seed 001 Listing 4.5, DDGI). `false` gives the irradiance-only blend that leaks
+    /// light through walls. Default true.
+    pub visibility: bool,
+    /// The shading point is moved this far along its normal before the visibility test, so a
+    /// surface does not shadow itself (seed 001 biases the distance by 0.01). Default 0.02.
+    pub normal_bias: f32,
+}
+
+impl Default for DiffuseOptions {
+    fn default() -> Self {
+        Self {
+            visibility: true,
+            normal_bias: 0.02,
+        }
+    }
+}
+
+/// The diffuse result at one shading point.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiffuseResult {
+    /// Blended irradiance `E(n)` (divide by π and multiply by albedo for outgoing radiance).
+    pub irradiance: Vec3,
+    /// Sum of the probes' weights before normalisation (interpolation × visibility): near 0
+    /// where every probe was judged occluded.
+    pub weight: f32,
+}

@@ -1,0 +1,396 @@
+//! The CPU tracer on real geometry: single probes in convex rooms, multi-probe hand-off past
+//! occluders, the built-in Cornell box against exact BVH hits, hi-Z against two-level.
+
+mod support;
+
+use glam::{Vec2, Vec3};
+use probe_index::{
+    NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
+};
+use probe_scene::{Material, Ray, Scene, Triangle};
+use probe_trace_gpu::{
+    CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
+    TraceSummary,
+};
+use support::{
+    Geometry, accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays,
+};
+
+/// A quad as two triangles, wound so that its normal points along `facing`.
+fn quad(out: &mut Vec<Triangle>, c: [Vec3; 4], facing: Vec3, material: u32) {
+    let n = (c[1] - c[0]).cross(c[2] - c[0]);
+    let c = if n.dot(facing) >= 0.0 {
+        c
+    } else {
+        [c[0], c[3], c[2], c[1]]
+    };
+    let normal = (c[1] - c[0]).cross(c[2] - c[0]).normalize();
+    for [i, j, k] in [[0, 1, 2], [0, 2, 3]] {
+        out.push(Triangle {
+            positions: [c[i], c[j], c[k]],
+            normals: [normal; 3],
+            uvs: [Vec2::ZERO; 3],
+            material,
+        });
+    }
+}
+
+/// The six faces of the box `[lo, hi]`, facing inward (`inward`) or outward.
+fn box_faces(out: &mut Vec<Triangle>, lo: Vec3, hi: Vec3, inward: bool, first_material: u32) {
+    let s = if inward { -1.0 } else { 1.0 };
+    let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let faces = [
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(lo.x, hi.y, lo.z),
+                v(lo.x, hi.y, hi.z),
+                v(lo.x, lo.y, hi.z),
+            ],
+            -Vec3::X,
+        ),
+        (
+            [
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(hi.x, hi.y, hi.z),
+                v(hi.x, lo.y, hi.z),
+            ],
+            Vec3::X,
+        ),
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, lo.y, hi.z),
+                v(lo.x, lo.y, hi.z),
+            ],
+            -Vec3::Y,
+        ),
+        (
+            [
+                v(lo.x, hi.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(hi.x, hi.y, hi.z),
+                v(lo.x, hi.y, hi.z),
+            ],
+            Vec3::Y,
+        ),
+        (
+            [
+                v(lo.x, lo.y, lo.z),
+                v(hi.x, lo.y, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(lo.x, hi.y, lo.z),
+            ],
+            -Vec3::Z,
+        ),
+        (
+            [
+                v(lo.x, lo.y, hi.z),
+                v(hi.x, lo.y, hi.z),
+                v(hi.x, hi.y, hi.z),
+                v(lo.x, hi.y, hi.z),
+            ],
+            Vec3::Z,
+        ),
+    ];
+    for (k, (corners, normal)) in faces.into_iter().enumerate() {
+        quad(out, corners, normal * s, first_material + k as u32 % 6);
+    }
+}
+
+/// A closed 4×3×4 room with six differently coloured walls, optionally with a closed pillar.
+fn room(pillar: bool) -> Scene {
+    let mut materials: Vec<Material> = (0..6)
+        .map(|i| {
+            Material::diffuse(
+                format!("wall {i}"),
+                Vec3::new(
+                    0.2 + 0.13 * i as f32,
+                    0.9 - 0.12 * i as f32,
+                    0.3 + 0.1 * (i % 3) as f32,
+                ),
+            )
+        })
+        .collect();
+    materials.push(Material::diffuse("pillar", Vec3::new(0.9, 0.9, 0.1)));
+    let mut triangles = Vec::new();
+    box_faces(
+        &mut triangles,
+        Vec3::new(-2.0, 0.0, -2.0),
+        Vec3::new(2.0, 3.0, 2.0),
+        true,
+        0,
+    );
+    if pillar {
+        let mut pillar_faces = Vec::new();
+        box_faces(
+            &mut pillar_faces,
+            Vec3::new(-0.4, 0.0, -0.4),
+            Vec3::new(0.4, 3.0, 0.4),
+            false,
+            0,
+        );
+        triangles.extend(
+            pillar_faces
+                .into_iter()
+                .map(|t| Triangle { material: 6, ..t }),
+        );
+    }
+    Scene::from_triangles("room", triangles, materials, Vec::new(), Vec::new()).unwrap()
+}
+
+/// Deterministic pseudo-random numbers in [0, 1).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    fn direction(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - Vec3::ONE;
+            let l = v.length();
+            if l > 0.05 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}
+
+fn options(method: TraceMethod) -> TraceOptions {
+    TraceOptions {
+        method,
+        ..TraceOptions::default()
+    }
+}
+
+/// Probes in a convex room answer every ray from inside the room with the first probe tried,
+/// within a texel footprint of the exact hit, both methods giving the same answers.
+#[test]
+fn single_probe_sees_a_convex_room() {
+    let scene = room(false);
+    let shade = albedo_shade(&scene);
+    let mut tracer = CpuTracer::new();
+    // Eight probes at the corners of a small cube around the centre, all inside the room.
+    let grid = ProbeGrid::new(Vec3::new(-0.3, 1.2, -0.3), Vec3::splat(0.6), [2, 2, 2]).unwrap();
+    let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
+    tracer
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .unwrap();
+    let mut rng = Lcg(9);
+    let rays: Vec<Ray> = (0..2000)
+        .map(|_| {
+            let o = Vec3::new(
+                rng.next() * 3.6 - 1.8,
+                0.2 + rng.next() * 2.6,
+                rng.next() * 3.6 - 1.8,
+            );
+            Ray::new(o, rng.direction())
+        })
+        .collect();
+    let trace_rays = to_trace_rays(&rays);
+    let hiz = tracer
+        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .unwrap();
+    let two = tracer
+        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .unwrap();
+    let a = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
+    assert_eq!(a.seen, rays.len());
+    assert!(a.seen_rate() >= 0.995, "{a:?}");
+    // In a convex room the first probe tried sees every ray to its end.
+    let s = TraceSummary::of(&hiz.results);
+    assert!(s.probes_per_ray < 1.05, "{s:?}");
+    let mut same = 0;
+    for (h, t) in hiz.results.iter().zip(&two.results) {
+        if h.status == t.status && (h.t - t.t).abs() <= 1e-3 * (1.0 + h.t) {
+            same += 1;
+        }
+    }
+    assert!(
+        same as f64 >= 0.999 * rays.len() as f64,
+        "{same} of {}",
+        rays.len()
+    );
+    let f_hiz = TraceSummary::of(&hiz.results).fetches_per_ray;
+    let f_two = TraceSummary::of(&two.results).fetches_per_ray;
+    assert!(
+        f_hiz < f_two,
+        "hi-Z {f_hiz} vs two-level {f_two} fetches per ray"
+    );
+}
+
+/// A pillar hides part of the room from each probe: rays the first probe cannot finish are
+/// handed on (seed 003 Alg. 5) and still end on the right surface; every selector copes.
+#[test]
+fn hand_off_past_an_occluder() {
+    let scene = room(true);
+    let shade = albedo_shade(&scene);
+    let grid = ProbeGrid::new(
+        Vec3::new(-1.2, 0.6, -1.2),
+        Vec3::new(2.4, 1.8, 2.4),
+        [2, 2, 2],
+    )
+    .unwrap();
+    let positions = grid.positions();
+    let bake = mini_capture(&scene, &positions, 64, 100.0, &shade);
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    let neighbours = VoronoiNeighbours::bake(&tets, 16).unwrap();
+    let nearest = NearestProbe::new(&positions);
+    let svo = SparseVoxelOctree::build(
+        &Geometry(&scene),
+        &positions,
+        &SvoOptions {
+            max_depth: 5,
+            ..SvoOptions::default()
+        },
+    )
+    .unwrap();
+    let mut rng = Lcg(4);
+    let rays: Vec<Ray> = (0..1500)
+        .filter_map(|_| {
+            let o = Vec3::new(
+                rng.next() * 3.6 - 1.8,
+                0.2 + rng.next() * 2.6,
+                rng.next() * 3.6 - 1.8,
+            );
+            (o.x.abs() > 0.5 || o.z.abs() > 0.5).then(|| Ray::new(o, rng.direction()))
+        })
+        .collect();
+    let trace_rays = to_trace_rays(&rays);
+    for selection in [
+        ProbeSelection::Grid(grid),
+        ProbeSelection::SparseVoxelOctree(&svo),
+        ProbeSelection::Voronoi {
+            nearest: &nearest,
+            neighbours: &neighbours,
+        },
+    ] {
+        let mut tracer = CpuTracer::new();
+        tracer
+            .upload(&bake.field(), &selection, &FieldOptions::default())
+            .unwrap();
+        let out = tracer.trace(&trace_rays, &TraceOptions::default()).unwrap();
+        let a = accuracy(&scene, &bake, &rays, &out.results, &shade);
+        let s = TraceSummary::of(&out.results);
+        eprintln!("{}: {a:?} {s:?}", selection.name());
+        // Measured: grid 94.7 %, octree 96.0 %, Voronoi 94.7 % within one footprint; wrong
+        // answers 0.5 % or less (the rest are rays left UNKNOWN near the pillar's edges).
+        assert!(a.seen_rate() >= 0.92, "{}: {a:?}", selection.name());
+        assert!(
+            a.wrong_answers as f64 <= 0.01 * rays.len() as f64,
+            "{}: {a:?}",
+            selection.name()
+        );
+        // Some rays needed more than one probe.
+        assert!(
+            out.results.iter().any(|r| r.probes_tried > 1),
+            "{}",
+            selection.name()
+        );
+    }
+}
+
+fn cornell_grid() -> ProbeGrid {
+    ProbeGrid::new(
+        Vec3::new(0.07, 0.07, 0.07),
+        Vec3::new(0.205, 0.2, 0.21),
+        [3, 3, 3],
+    )
+    .unwrap()
+}
+
+/// The built-in Cornell box, 27 probes at 64², mirror reflection rays from a camera view,
+/// against exact BVH hits (BRIEF, "How quality is measured"): hi-Z and two-level give the same
+/// answers, hi-Z with fewer fetches. The goal is 99 % of rays whose true hit some probe sees
+/// answered within one texel footprint; this layout (probes a few cm from the blocks) reaches
+/// 96.4 % at 64² with 1 % wrong answers — see `BENCHMARKS.md` for resolutions and probe counts.
+#[test]
+fn cornell_reflections_against_exact_hits() {
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let shade = albedo_shade(&scene);
+    let grid = cornell_grid();
+    let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &shade);
+    let mut tracer = CpuTracer::new();
+    tracer
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .unwrap();
+    let rays = reflection_rays(&scene, &camera_rays(&scene, 64, 48));
+    let trace_rays = to_trace_rays(&rays);
+    let hiz = tracer
+        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .unwrap();
+    let two = tracer
+        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .unwrap();
+    let a_hiz = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
+    let a_two = accuracy(&scene, &bake, &rays, &two.results, &shade);
+    let s_hiz = TraceSummary::of(&hiz.results);
+    let s_two = TraceSummary::of(&two.results);
+    eprintln!("hi-Z {a_hiz:?} {s_hiz:?}\ntwo-level {a_two:?} {s_two:?}");
+    assert!(a_hiz.seen_rate() >= 0.95, "{a_hiz:?}");
+    assert!(
+        a_hiz.wrong_answers as f64 <= 0.02 * rays.len() as f64,
+        "{a_hiz:?}"
+    );
+    for (h, t) in hiz.results.iter().zip(&two.results) {
+        assert_eq!(h.status, t.status);
+        assert!((h.position - t.position).length() <= 1e-5, "{h:?} {t:?}");
+    }
+    assert!(s_hiz.fetches_per_ray < s_two.fetches_per_ray);
+}
+
+/// Misses: a probe under an open sky answers rays that leave the scene as misses with the sky.
+#[test]
+fn rays_into_the_sky_are_misses() {
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let shade = albedo_shade(&scene);
+    let grid = cornell_grid();
+    let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &shade);
+    let mut tracer = CpuTracer::new();
+    tracer
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .unwrap();
+    // The Cornell box is open towards −z: rays from inside out through the opening escape.
+    let rays: Vec<TraceRay> = (0..50)
+        .map(|i| {
+            let x = 0.1 + 0.35 * (i % 10) as f32 / 10.0;
+            TraceRay::new(Vec3::new(x, 0.4, 0.05), Vec3::new(0.05, 0.02, -1.0))
+        })
+        .collect();
+    let out = tracer.trace(&rays, &TraceOptions::default()).unwrap();
+    for r in &out.results {
+        assert_eq!(r.status, RayStatus::Miss, "{r:?}");
+        assert!(r.radiance.abs_diff_eq(support::SKY, 1e-6));
+        assert!(r.position.is_finite());
+    }
+    // A short ray that stops before any surface is a miss too, ending at its t_max.
+    let short = [TraceRay::with_range(
+        Vec3::new(0.28, 0.27, 0.28),
+        Vec3::Y,
+        0.0,
+        0.05,
+    )];
+    let out = tracer.trace(&short, &TraceOptions::default()).unwrap();
+    assert_eq!(out.results[0].status, RayStatus::Miss);
+    assert!((out.results[0].t - 0.05).abs() < 1e-6);
+}

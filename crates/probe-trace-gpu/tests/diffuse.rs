@@ -1,0 +1,277 @@
+//! Diffuse shading from irradiance probes (seed 001 §4.3.6–4.3.7) on the CPU twin: exact
+//! interpolation of linear fields, and the leak rooms with and without Chebyshev visibility.
+
+mod support;
+
+use glam::{Vec2, Vec3};
+use probe_index::{ProbeGrid, Tetrahedralization};
+use probe_scene::{Ray, Scene};
+use probe_trace_gpu::{
+    CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, TraceError,
+};
+use support::{LowRes, direct_light_shade, mini_capture};
+
+/// Both interpolations reproduce a field that is linear in the probe position (irradiance maps
+/// constant per probe), anywhere inside the probe set.
+#[test]
+fn interpolation_reproduces_linear_fields() {
+    let grid = ProbeGrid::new(
+        Vec3::new(-1.0, 0.0, 0.5),
+        Vec3::new(0.8, 0.6, 1.1),
+        [4, 3, 3],
+    )
+    .unwrap();
+    let positions = grid.positions();
+    let f = |p: Vec3| {
+        Vec3::new(
+            1.0 + 0.3 * p.x,
+            2.0 - 0.2 * p.y + 0.1 * p.z,
+            0.5 + 0.25 * p.z,
+        )
+    };
+    let per_probe = (6 + 2) * (6 + 2);
+    let irradiance: Vec<Vec3> = positions
+        .iter()
+        .flat_map(|&p| std::iter::repeat_n(f(p), per_probe))
+        .collect();
+    let moments = vec![Vec2::new(1.0, 1.0); positions.len() * 16 * 16];
+    let field = IrradianceField {
+        positions: &positions,
+        irradiance_resolution: 6,
+        irradiance: &irradiance,
+        moments_resolution: 14,
+        moments: &moments,
+    };
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    let mut tracer = CpuTracer::new();
+    let mut state = 3u64;
+    let mut next = || {
+        state = state.wrapping_mul(6364136223846793005).wrapping_add(1);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let points: Vec<ShadingPoint> = (0..500)
+        .map(|_| {
+            let x = Vec3::new(-1.0 + 2.4 * next(), 1.2 * next(), 0.5 + 2.2 * next());
+            ShadingPoint::new(x, Vec3::new(next() - 0.5, 0.3, next() - 0.5))
+        })
+        .collect();
+    let options = DiffuseOptions {
+        visibility: false,
+        ..DiffuseOptions::default()
+    };
+    for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
+        tracer.upload_irradiance(&field, &interpolation).unwrap();
+        let out = tracer.shade_diffuse(&points, &options).unwrap();
+        for (p, r) in points.iter().zip(&out.results) {
+            let expected = f(Vec3::from(p.position));
+            assert!(
+                (r.irradiance - expected).length() < 1e-4 * expected.length(),
+                "{:?} at {:?}: {} vs {expected}",
+                interpolation,
+                p.position,
+                r.irradiance
+            );
+            assert!((r.weight - 1.0).abs() < 1e-4);
+        }
+    }
+}
+
+/// Irradiance at `x` with normal `n` by BVH: `π ·` the mean of `shade` over cosine-distributed
+/// directions (a stratified 16×16 set).
+fn reference_irradiance(
+    scene: &Scene,
+    shade: &(dyn Fn(&probe_scene::Hit, Vec3) -> Vec3 + Sync),
+    x: Vec3,
+    n: Vec3,
+) -> Vec3 {
+    let t = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
+    let u = n.cross(t).normalize();
+    let v = n.cross(u);
+    let k = 16;
+    let mut sum = Vec3::ZERO;
+    for i in 0..k {
+        for j in 0..k {
+            let (a, b) = ((i as f32 + 0.5) / k as f32, (j as f32 + 0.5) / k as f32);
+            let r = a.sqrt();
+            let phi = std::f32::consts::TAU * b;
+            let d = u * (r * phi.cos()) + v * (r * phi.sin()) + n * (1.0 - a).sqrt();
+            if let Some(hit) = scene.closest_hit(&Ray::from_surface(x, n, d), f32::INFINITY) {
+                sum += shade(&hit, d);
+            }
+        }
+    }
+    sum * (std::f32::consts::PI / (k * k) as f32)
+}
+
+/// Dark-room floor points near the dividing wall, and lit-room floor points.
+fn floor_points(x0: f32, x1: f32, z0: f32, z1: f32) -> Vec<ShadingPoint> {
+    let mut points = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            let x = x0 + (x1 - x0) * (i as f32 + 0.5) / 6.0;
+            let z = z0 + (z1 - z0) * (j as f32 + 0.5) / 6.0;
+            points.push(ShadingPoint::new(Vec3::new(x, 0.0, z), Vec3::Y));
+        }
+    }
+    points
+}
+
+struct LeakFigures {
+    dark_leaky: f32,
+    dark_visible: f32,
+    dark_reference: f32,
+    lit_leaky: f32,
+    lit_visible: f32,
+    lit_reference: f32,
+}
+
+/// Mean irradiance (luminance-like: channel mean) on the dark and lit floors, irradiance-only
+/// and visibility-aware, against the BVH reference.
+fn leak_figures(scene_name: &str) -> LeakFigures {
+    let scene = Scene::open(scene_name).unwrap();
+    let shade = direct_light_shade(&scene);
+    // 6×3×4 probes over both rooms, none inside the 0.2 m wall at x ∈ [-0.1, 0.1].
+    let grid = ProbeGrid::new(
+        Vec3::new(-3.0, 0.5, -1.5),
+        Vec3::new(1.2, 1.0, 1.0),
+        [6, 3, 4],
+    )
+    .unwrap();
+    let bake = mini_capture(&scene, &grid.positions(), 16, 100.0, &shade);
+    let low = LowRes::of(&bake);
+    let mut tracer = CpuTracer::new();
+    tracer
+        .upload_irradiance(&low.field(), &Interpolation::Grid(grid))
+        .unwrap();
+    let dark = floor_points(0.15, 1.2, -1.8, 0.8);
+    let lit = floor_points(-1.2, -0.15, -1.8, 0.8);
+    let mean = |v: &[Vec3]| v.iter().map(|e| (e.x + e.y + e.z) / 3.0).sum::<f32>() / v.len() as f32;
+    let shade_with = |points: &[ShadingPoint], visibility: bool| -> Vec<Vec3> {
+        let options = DiffuseOptions {
+            visibility,
+            ..DiffuseOptions::default()
+        };
+        tracer
+            .shade_diffuse(points, &options)
+            .unwrap()
+            .results
+            .iter()
+            .map(|r| r.irradiance)
+            .collect()
+    };
+    let reference = |points: &[ShadingPoint]| -> Vec<Vec3> {
+        points
+            .iter()
+            .map(|p| {
+                reference_irradiance(&scene, &shade, Vec3::from(p.position), Vec3::from(p.normal))
+            })
+            .collect()
+    };
+    LeakFigures {
+        dark_leaky: mean(&shade_with(&dark, false)),
+        dark_visible: mean(&shade_with(&dark, true)),
+        dark_reference: mean(&reference(&dark)),
+        lit_leaky: mean(&shade_with(&lit, false)),
+        lit_visible: mean(&shade_with(&lit, true)),
+        lit_reference: mean(&reference(&lit)),
+    }
+}
+
+/// `builtin:leak-closed`: trilinear irradiance leaks the lit room's light through the complete
+/// wall onto the dark floor; the Chebyshev visibility weight removes it, and keeps the lit
+/// floor's light.
+#[test]
+fn visibility_stops_the_leak_through_a_closed_wall() {
+    let f = leak_figures("builtin:leak-closed");
+    eprintln!(
+        "leak-closed dark floor: irradiance-only {:.4}, visibility {:.4}, reference {:.4}; lit floor: {:.4}, {:.4}, {:.4}",
+        f.dark_leaky, f.dark_visible, f.dark_reference, f.lit_leaky, f.lit_visible, f.lit_reference
+    );
+    assert!(
+        f.dark_reference < 1e-6,
+        "no light reaches the closed dark room"
+    );
+    assert!(
+        f.dark_leaky > 0.05 * f.lit_reference,
+        "the irradiance-only blend leaks"
+    );
+    assert!(
+        f.dark_visible < 0.1 * f.dark_leaky,
+        "visibility removes the leak"
+    );
+    assert!(
+        (f.lit_visible - f.lit_reference).abs() < 0.35 * f.lit_reference,
+        "lit floor keeps its light"
+    );
+}
+
+/// `builtin:leak-gap`: light really comes through the gap; the visibility-aware blend is
+/// closer to the reference on the dark floor than the irradiance-only one.
+#[test]
+fn visibility_keeps_light_through_a_gap() {
+    let f = leak_figures("builtin:leak-gap");
+    eprintln!(
+        "leak-gap dark floor: irradiance-only {:.4}, visibility {:.4}, reference {:.4}; lit floor: {:.4}, {:.4}, {:.4}",
+        f.dark_leaky, f.dark_visible, f.dark_reference, f.lit_leaky, f.lit_visible, f.lit_reference
+    );
+    assert!(f.dark_reference > 0.0, "some light comes through the gap");
+    assert!(
+        (f.dark_visible - f.dark_reference).abs() < (f.dark_leaky - f.dark_reference).abs(),
+        "visibility is closer to the reference"
+    );
+}
+
+#[test]
+fn diffuse_errors_name_the_problem() {
+    let mut tracer = CpuTracer::new();
+    let points = [ShadingPoint::new(Vec3::ZERO, Vec3::Y)];
+    assert!(matches!(
+        tracer.shade_diffuse(&points, &DiffuseOptions::default()),
+        Err(TraceError::NotUploaded {
+            call: "upload_irradiance",
+            ..
+        })
+    ));
+    let positions = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+    let irradiance = vec![Vec3::ONE; 4 * 64];
+    let moments = vec![Vec2::ONE; 4 * 256];
+    let field = IrradianceField {
+        positions: &positions,
+        irradiance_resolution: 6,
+        irradiance: &irradiance,
+        moments_resolution: 14,
+        moments: &moments,
+    };
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    tracer
+        .upload_irradiance(&field, &Interpolation::Delaunay(&tets))
+        .unwrap();
+    let bad_point = [ShadingPoint::new(Vec3::ZERO, Vec3::ZERO)];
+    assert!(matches!(
+        tracer.shade_diffuse(&bad_point, &DiffuseOptions::default()),
+        Err(TraceError::BadInput {
+            item: "shading point",
+            index: 0,
+            ..
+        })
+    ));
+    let bad_bias = DiffuseOptions {
+        normal_bias: -1.0,
+        ..DiffuseOptions::default()
+    };
+    assert!(matches!(
+        tracer.shade_diffuse(&points, &bad_bias),
+        Err(TraceError::BadOption {
+            option: "normal_bias",
+            ..
+        })
+    ));
+    let short = IrradianceField {
+        irradiance: &irradiance[1..],
+        ..field
+    };
+    let error = tracer
+        .upload_irradiance(&short, &Interpolation::Delaunay(&tets))
+        .unwrap_err();
+    assert!(error.to_string().contains("`irradiance`"), "{error}");
+}

@@ -1,0 +1,269 @@
+//! Bad input gets an error naming the parameter, element or structure, never a panic.
+
+use glam::Vec3;
+use probe_index::{NearestProbe, ProbeGrid, Tetrahedralization, VoronoiNeighbours};
+use probe_trace_gpu::{
+    CpuTracer, FieldOptions, LightField, ProbeSelection, TraceError, TraceOptions, TraceRay,
+    UploadError,
+};
+
+/// An `n×n` field of `probes` probes in a unit-cube room, analytically.
+struct Field {
+    positions: Vec<Vec3>,
+    distance: Vec<f32>,
+    normals: Vec<Vec3>,
+    radiance: Vec<Vec3>,
+}
+
+fn field(n: u32, probes: usize) -> Field {
+    let len = (n as usize + 2).pow(2);
+    Field {
+        positions: (0..probes)
+            .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
+            .collect(),
+        distance: vec![1.0; len * probes],
+        normals: vec![Vec3::Y; len * probes],
+        radiance: vec![Vec3::ONE; len * probes],
+    }
+}
+
+fn light_field(f: &Field, n: u32) -> LightField<'_> {
+    LightField {
+        resolution: n,
+        positions: &f.positions,
+        radial_distance: &f.distance,
+        normals: &f.normals,
+        radiance: &f.radiance,
+        sky_distance: 100.0,
+    }
+}
+
+fn grid_of_8() -> ProbeGrid {
+    ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [2, 2, 2]).unwrap()
+}
+
+fn upload(field: &LightField<'_>, selection: &ProbeSelection<'_>) -> Result<(), UploadError> {
+    CpuTracer::new().upload(field, selection, &FieldOptions::default())
+}
+
+#[test]
+fn upload_errors_name_what_is_wrong() {
+    let f = field(16, 8);
+    let grid = ProbeSelection::Grid(grid_of_8());
+    assert!(upload(&light_field(&f, 16), &grid).is_ok());
+
+    for bad in [0, 4, 12, 8192] {
+        let g = field(bad.min(16), 8);
+        let e = upload(&light_field(&g, bad), &grid).unwrap_err();
+        assert!(
+            matches!(e, UploadError::Resolution { parameter: "resolution", value, .. } if value == bad),
+            "{e}"
+        );
+    }
+
+    let short = LightField {
+        radial_distance: &f.distance[1..],
+        ..light_field(&f, 16)
+    };
+    let e = upload(&short, &grid).unwrap_err();
+    assert_eq!(
+        e,
+        UploadError::LengthMismatch {
+            parameter: "radial_distance",
+            expected: 8 * 18 * 18,
+            actual: 8 * 18 * 18 - 1
+        }
+    );
+    assert!(e.to_string().contains("radial_distance"));
+
+    let mut g = field(16, 8);
+    g.distance[77] = f32::NAN;
+    let e = upload(&light_field(&g, 16), &grid).unwrap_err();
+    assert_eq!(
+        e,
+        UploadError::NonFinite {
+            parameter: "radial_distance",
+            index: 77
+        }
+    );
+    let mut g = field(16, 8);
+    g.distance[5] = -1.0;
+    assert!(matches!(
+        upload(&light_field(&g, 16), &grid),
+        Err(UploadError::NegativeDistance { index: 5, .. })
+    ));
+    let mut g = field(16, 8);
+    g.normals[9] = Vec3::new(f32::INFINITY, 0.0, 0.0);
+    assert!(matches!(
+        upload(&light_field(&g, 16), &grid),
+        Err(UploadError::NonFinite {
+            parameter: "normals",
+            index: 9
+        })
+    ));
+    let mut g = field(16, 8);
+    g.positions[3] = Vec3::NAN;
+    assert!(matches!(
+        upload(&light_field(&g, 16), &grid),
+        Err(UploadError::NonFinite {
+            parameter: "positions",
+            index: 3
+        })
+    ));
+
+    let sky = LightField {
+        sky_distance: 0.0,
+        ..light_field(&f, 16)
+    };
+    assert!(matches!(
+        upload(&sky, &grid),
+        Err(UploadError::BadParameter {
+            parameter: "sky_distance",
+            ..
+        })
+    ));
+    let e = CpuTracer::new()
+        .upload(
+            &light_field(&f, 16),
+            &grid,
+            &FieldOptions {
+                thickness_scale: f32::NAN,
+                ..FieldOptions::default()
+            },
+        )
+        .unwrap_err();
+    assert!(matches!(
+        e,
+        UploadError::BadParameter {
+            parameter: "thickness_scale",
+            ..
+        }
+    ));
+
+    let empty = field(16, 0);
+    assert_eq!(
+        upload(&light_field(&empty, 16), &grid),
+        Err(UploadError::NoProbes)
+    );
+}
+
+#[test]
+fn selection_must_fit_the_probes() {
+    let f = field(16, 8);
+    let big = ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [3, 2, 2]).unwrap();
+    let e = upload(&light_field(&f, 16), &ProbeSelection::Grid(big)).unwrap_err();
+    assert_eq!(
+        e,
+        UploadError::ProbeCountMismatch {
+            selection: "grid",
+            expected: 8,
+            actual: 12
+        }
+    );
+
+    // Neighbour maps of 9 probes for a field of 8.
+    let mut nine = grid_of_8().positions();
+    nine.push(Vec3::splat(0.5));
+    let tets = Tetrahedralization::build(&nine).unwrap();
+    let neighbours = VoronoiNeighbours::bake(&tets, 4).unwrap();
+    let nearest = NearestProbe::new(&nine);
+    let e = upload(
+        &light_field(&f, 16),
+        &ProbeSelection::Voronoi {
+            nearest: &nearest,
+            neighbours: &neighbours,
+        },
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            UploadError::ProbeCountMismatch {
+                expected: 8,
+                actual: 9,
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn trace_errors_name_the_ray_or_option() {
+    let f = field(16, 8);
+    let mut tracer = CpuTracer::new();
+    let ok = [TraceRay::new(Vec3::splat(0.5), Vec3::X)];
+    assert!(matches!(
+        tracer.trace(&ok, &TraceOptions::default()),
+        Err(TraceError::NotUploaded { call: "upload", .. })
+    ));
+    tracer
+        .upload(
+            &light_field(&f, 16),
+            &ProbeSelection::Grid(grid_of_8()),
+            &FieldOptions::default(),
+        )
+        .unwrap();
+    assert!(tracer.trace(&ok, &TraceOptions::default()).is_ok());
+    assert!(
+        tracer
+            .trace(&[], &TraceOptions::default())
+            .unwrap()
+            .results
+            .is_empty()
+    );
+    let cases = [
+        (
+            TraceRay::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X),
+            "origin",
+        ),
+        (TraceRay::new(Vec3::ZERO, Vec3::ZERO), "zero"),
+        (
+            TraceRay::new(Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)),
+            "direction",
+        ),
+        (TraceRay::with_range(Vec3::ZERO, Vec3::X, 2.0, 1.0), "range"),
+        (
+            TraceRay::with_range(Vec3::ZERO, Vec3::X, -1.0, 1.0),
+            "range",
+        ),
+    ];
+    for (bad, word) in cases {
+        let rays = [ok[0], ok[0], bad];
+        let e = tracer.trace(&rays, &TraceOptions::default()).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                TraceError::BadInput {
+                    item: "ray",
+                    index: 2,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(e.to_string().contains(word), "{e}");
+    }
+    for (options, name) in [
+        (
+            TraceOptions {
+                max_probes: 65,
+                ..TraceOptions::default()
+            },
+            "max_probes",
+        ),
+        (
+            TraceOptions {
+                coarse_downsample: 12,
+                ..TraceOptions::default()
+            },
+            "coarse_downsample",
+        ),
+    ] {
+        let e = tracer.trace(&ok, &options).unwrap_err();
+        assert!(
+            matches!(e, TraceError::BadOption { option, .. } if option == name),
+            "{e}"
+        );
+    }
+}

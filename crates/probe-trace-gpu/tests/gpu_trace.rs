@@ -1,0 +1,288 @@
+//! The GPU tracer against its CPU twin, on lavapipe here (any wgpu adapter elsewhere).
+//!
+//! Without an adapter these tests print a message and pass; with `PROBE_REQUIRE_GPU=1` they
+//! fail instead (CI sets it).
+
+mod support;
+
+use glam::Vec3;
+use probe_index::{
+    NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
+};
+use probe_scene::Scene;
+use probe_trace_gpu::{
+    CpuTracer, DiffuseOptions, FieldOptions, GpuContext, Interpolation, ProbeSelection, RayResult,
+    RayStatus, ShadingPoint, TraceError, TraceMethod, TraceOptions, TraceRay, TraceSummary,
+};
+use support::{
+    Geometry, LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays,
+    to_trace_rays,
+};
+
+/// Compares GPU and CPU results: statuses agree for ≥ 99.9 % of rays, and where both hit,
+/// positions agree within 1e-4 m for ≥ 99.9 % of those.
+fn assert_agree(label: &str, gpu: &[RayResult], cpu: &[RayResult]) {
+    assert_eq!(gpu.len(), cpu.len());
+    let n = gpu.len();
+    let same_status = gpu
+        .iter()
+        .zip(cpu)
+        .filter(|(g, c)| g.status == c.status)
+        .count();
+    let both_hit: Vec<f32> = gpu
+        .iter()
+        .zip(cpu)
+        .filter(|(g, c)| g.status == RayStatus::Hit && c.status == RayStatus::Hit)
+        .map(|(g, c)| (g.position - c.position).length())
+        .collect();
+    let close = both_hit.iter().filter(|&&e| e <= 1e-4).count();
+    let same_fetches = gpu
+        .iter()
+        .zip(cpu)
+        .filter(|(g, c)| g.texel_fetches == c.texel_fetches)
+        .count();
+    eprintln!(
+        "{label}: status {same_status}/{n}, hit positions within 1e-4 m {close}/{}, equal fetch counts {same_fetches}/{n}",
+        both_hit.len()
+    );
+    assert!(
+        same_status as f64 >= 0.999 * n as f64,
+        "{label}: statuses agree for {same_status} of {n}"
+    );
+    assert!(
+        close as f64 >= 0.999 * both_hit.len() as f64,
+        "{label}: {close} of {} hit positions within 1e-4 m",
+        both_hit.len()
+    );
+    assert!(
+        both_hit.len() as f64 > 0.3 * n as f64,
+        "{label}: too few hits to compare"
+    );
+}
+
+fn cornell_grid() -> ProbeGrid {
+    ProbeGrid::new(
+        Vec3::new(0.07, 0.07, 0.07),
+        Vec3::new(0.205, 0.2, 0.21),
+        [3, 3, 3],
+    )
+    .unwrap()
+}
+
+/// Every selector and both methods: the GPU reproduces the CPU twin on Cornell reflection rays.
+#[test]
+fn gpu_matches_cpu_for_every_selector_and_method() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let shade = albedo_shade(&scene);
+    let grid = cornell_grid();
+    let positions = grid.positions();
+    let bake = mini_capture(&scene, &positions, 64, 50.0, &shade);
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    let neighbours = VoronoiNeighbours::bake(&tets, 16).unwrap();
+    let nearest = NearestProbe::new(&positions);
+    let svo = SparseVoxelOctree::build(
+        &Geometry(&scene),
+        &positions,
+        &SvoOptions {
+            max_depth: 6,
+            ..SvoOptions::default()
+        },
+    )
+    .unwrap();
+    let mut rays = to_trace_rays(&reflection_rays(&scene, &camera_rays(&scene, 48, 36)));
+    rays.extend(to_trace_rays(&camera_rays(&scene, 24, 18)));
+    let mut cpu = CpuTracer::new();
+    for selection in [
+        ProbeSelection::Grid(grid),
+        ProbeSelection::SparseVoxelOctree(&svo),
+        ProbeSelection::Voronoi {
+            nearest: &nearest,
+            neighbours: &neighbours,
+        },
+    ] {
+        gpu.upload(&bake.field(), &selection, &FieldOptions::default())
+            .unwrap();
+        cpu.upload(&bake.field(), &selection, &FieldOptions::default())
+            .unwrap();
+        for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
+            let options = TraceOptions {
+                method,
+                ..TraceOptions::default()
+            };
+            let g = gpu.trace(&rays, &options).unwrap();
+            let c = cpu.trace(&rays, &options).unwrap();
+            let label = format!("{} {}", selection.name(), method.name());
+            assert_agree(&label, &g.results, &c.results);
+            eprintln!(
+                "  {:?} wall {:?} gpu {:?}",
+                TraceSummary::of(&g.results),
+                g.timing.wall,
+                g.timing.gpu
+            );
+        }
+    }
+}
+
+/// Buffers are made once and grow only when needed: calls of varying sizes (including more
+/// rays than the first call) keep matching the CPU, and an empty call works.
+#[test]
+fn repeated_calls_reuse_and_grow_buffers() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let shade = albedo_shade(&scene);
+    let grid = cornell_grid();
+    let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &shade);
+    let mut cpu = CpuTracer::new();
+    gpu.upload(
+        &bake.field(),
+        &ProbeSelection::Grid(grid),
+        &FieldOptions::default(),
+    )
+    .unwrap();
+    cpu.upload(
+        &bake.field(),
+        &ProbeSelection::Grid(grid),
+        &FieldOptions::default(),
+    )
+    .unwrap();
+    let all = to_trace_rays(&camera_rays(&scene, 40, 30));
+    for count in [100, 37, 1200, 5, 1200, 0] {
+        let rays = &all[..count];
+        let g = gpu.trace(rays, &TraceOptions::default()).unwrap();
+        let c = cpu.trace(rays, &TraceOptions::default()).unwrap();
+        assert_eq!(g.results.len(), count);
+        if count > 0 {
+            let same = g
+                .results
+                .iter()
+                .zip(&c.results)
+                .filter(|(a, b)| a.status == b.status)
+                .count();
+            assert!(same as f64 >= 0.99 * count as f64, "{count}: {same}");
+        }
+    }
+    // Options are checked before anything runs.
+    let bad = TraceOptions {
+        max_probes: 0,
+        ..TraceOptions::default()
+    };
+    assert!(matches!(
+        gpu.trace(&all[..4], &bad),
+        Err(TraceError::BadOption {
+            option: "max_probes",
+            ..
+        })
+    ));
+    let bad_ray = [TraceRay::new(Vec3::ZERO, Vec3::ZERO)];
+    assert!(matches!(
+        gpu.trace(&bad_ray, &TraceOptions::default()),
+        Err(TraceError::BadInput { index: 0, .. })
+    ));
+}
+
+/// Diffuse shading on the GPU equals the CPU twin, grid and Delaunay, with and without
+/// visibility.
+#[test]
+fn gpu_diffuse_matches_cpu() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let scene = Scene::open("builtin:leak-gap").unwrap();
+    let shade = support::direct_light_shade(&scene);
+    let grid = ProbeGrid::new(
+        Vec3::new(-3.0, 0.5, -1.5),
+        Vec3::new(1.2, 1.0, 1.0),
+        [6, 3, 4],
+    )
+    .unwrap();
+    let positions = grid.positions();
+    let bake = mini_capture(&scene, &positions, 16, 100.0, &shade);
+    let low = LowRes::of(&bake);
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    let points: Vec<ShadingPoint> = (0..400)
+        .map(|i| {
+            let x = -3.9 + 7.8 * ((i * 37) % 400) as f32 / 400.0;
+            let z = -1.9 + 3.8 * ((i * 91) % 400) as f32 / 400.0;
+            ShadingPoint::new(Vec3::new(x, 0.0, z), Vec3::Y)
+        })
+        .collect();
+    let mut cpu = CpuTracer::new();
+    for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
+        gpu.upload_irradiance(&low.field(), &interpolation).unwrap();
+        cpu.upload_irradiance(&low.field(), &interpolation).unwrap();
+        for visibility in [false, true] {
+            let options = DiffuseOptions {
+                visibility,
+                ..DiffuseOptions::default()
+            };
+            let g = gpu.shade_diffuse(&points, &options).unwrap();
+            let c = cpu.shade_diffuse(&points, &options).unwrap();
+            let close = g
+                .results
+                .iter()
+                .zip(&c.results)
+                .filter(|(a, b)| {
+                    (a.irradiance - b.irradiance).length() <= 1e-3 * (1.0 + b.irradiance.length())
+                })
+                .count();
+            assert!(
+                close as f64 >= 0.999 * points.len() as f64,
+                "visibility {visibility}: {close}"
+            );
+        }
+    }
+}
+
+/// A missing adapter gives a clear error. Run in a child process with `WGPU_BACKEND=metal`
+/// (no Metal backend exists on Linux or Windows, so no adapter can be found).
+#[test]
+#[cfg(not(target_os = "macos"))]
+fn missing_adapter_is_a_clear_error() {
+    if std::env::var_os("PROBE_TRACE_CHILD").is_some() {
+        return;
+    }
+    let exe = std::env::current_exe().unwrap();
+    let run = |require: bool| {
+        let mut command = std::process::Command::new(&exe);
+        command
+            .args([
+                "--exact",
+                "child_without_adapter",
+                "--ignored",
+                "--nocapture",
+            ])
+            .env("WGPU_BACKEND", "metal")
+            .env("PROBE_TRACE_CHILD", "1");
+        if require {
+            command.env("PROBE_REQUIRE_GPU", "1");
+        } else {
+            command.env_remove("PROBE_REQUIRE_GPU");
+        }
+        command.output().unwrap()
+    };
+    let lenient = run(false);
+    let text = String::from_utf8_lossy(&lenient.stdout).to_string()
+        + &String::from_utf8_lossy(&lenient.stderr);
+    assert!(lenient.status.success(), "{text}");
+    assert!(text.contains("no GPU adapter is available"), "{text}");
+    assert!(text.contains("skipping GPU test"), "{text}");
+    let strict = run(true);
+    let text = String::from_utf8_lossy(&strict.stdout).to_string()
+        + &String::from_utf8_lossy(&strict.stderr);
+    assert!(!strict.status.success(), "{text}");
+    assert!(
+        text.contains("PROBE_REQUIRE_GPU=1 but no GPU is usable"),
+        "{text}"
+    );
+}
+
+/// Child of `missing_adapter_is_a_clear_error` (ignored when run directly).
+#[test]
+#[ignore = "run by missing_adapter_is_a_clear_error in a child process"]
+fn child_without_adapter() {
+    if std::env::var_os("PROBE_TRACE_CHILD").is_none() {
+        return;
+    }
+    let error = GpuContext::new().expect_err("no adapter with WGPU_BACKEND=metal");
+    println!("error: {error}");
+    assert!(gpu_tracer().is_none());
+}

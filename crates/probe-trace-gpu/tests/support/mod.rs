@@ -1,0 +1,428 @@
+//! Test support: a "mini capture" that bakes probes by casting one BVH ray per texel centre
+//! (until `probe-capture` lands), ray sets, BVH references and accuracy figures.
+#![allow(dead_code)]
+
+use glam::{Vec2, Vec3};
+use probe_index::{RayHit, SceneGeometry};
+use probe_octa::{OctaLayout, OctaMap};
+use probe_scene::{Hit, Ray, Scene};
+use probe_trace_gpu::{
+    GpuContext, GpuTracer, IrradianceField, LightField, RayResult, RayStatus, TraceRay,
+};
+use rayon::prelude::*;
+
+/// Radiance of misses (the sky) in the mini capture and the references.
+pub const SKY: Vec3 = Vec3::new(0.3, 0.5, 0.9);
+
+/// Probes baked by the mini capture, in the tracer's input layout.
+pub struct Bake {
+    pub resolution: u32,
+    pub positions: Vec<Vec3>,
+    pub distance: Vec<f32>,
+    pub normals: Vec<Vec3>,
+    pub radiance: Vec<Vec3>,
+    pub sky_distance: f32,
+}
+
+impl Bake {
+    pub fn field(&self) -> LightField<'_> {
+        LightField {
+            resolution: self.resolution,
+            positions: &self.positions,
+            radial_distance: &self.distance,
+            normals: &self.normals,
+            radiance: &self.radiance,
+            sky_distance: self.sky_distance,
+        }
+    }
+
+    /// The padded maps of one probe.
+    pub fn distance_map(&self, probe: usize) -> OctaMap<f32> {
+        let len = OctaLayout::new(self.resolution).unwrap().padded_len();
+        OctaMap::from_padded(
+            self.resolution,
+            self.distance[probe * len..(probe + 1) * len].to_vec(),
+        )
+        .unwrap()
+    }
+
+    pub fn radiance_map(&self, probe: usize) -> OctaMap<Vec3> {
+        let len = OctaLayout::new(self.resolution).unwrap().padded_len();
+        OctaMap::from_padded(
+            self.resolution,
+            self.radiance[probe * len..(probe + 1) * len].to_vec(),
+        )
+        .unwrap()
+    }
+}
+
+/// The surface normal a probe stores for a hit seen along `direction`: the front face, or for
+/// double-sided materials the side facing the probe.
+pub fn stored_normal(scene: &Scene, hit: &Hit, direction: Vec3) -> Vec3 {
+    let n = hit.geometric_normal;
+    if scene.materials()[hit.material as usize].double_sided && n.dot(direction) > 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+/// Bakes `N×N` probes at `positions`: one BVH ray per texel centre. Misses store
+/// `sky_distance` and [`SKY`].
+pub fn mini_capture(
+    scene: &Scene,
+    positions: &[Vec3],
+    resolution: u32,
+    sky_distance: f32,
+    shade: &(dyn Fn(&Hit, Vec3) -> Vec3 + Sync),
+) -> Bake {
+    let layout = OctaLayout::new(resolution).unwrap();
+    let len = layout.padded_len();
+    let per_probe: Vec<(Vec<f32>, Vec<Vec3>, Vec<Vec3>)> = positions
+        .par_iter()
+        .map(|&p| {
+            let mut distance = vec![sky_distance; len];
+            let mut normals = vec![Vec3::ZERO; len];
+            let mut radiance = vec![SKY; len];
+            for iy in 0..resolution {
+                for ix in 0..resolution {
+                    let d = layout.texel_direction(ix, iy);
+                    let i = layout.interior_index(ix, iy);
+                    if let Some(hit) = scene.closest_hit(&Ray::new(p, d), f32::INFINITY) {
+                        distance[i] = hit.t.min(sky_distance);
+                        normals[i] = stored_normal(scene, &hit, d);
+                        radiance[i] = shade(&hit, d);
+                    }
+                }
+            }
+            layout.pad(&mut distance).unwrap();
+            layout.pad(&mut normals).unwrap();
+            layout.pad(&mut radiance).unwrap();
+            (distance, normals, radiance)
+        })
+        .collect();
+    let mut bake = Bake {
+        resolution,
+        positions: positions.to_vec(),
+        distance: Vec::with_capacity(len * positions.len()),
+        normals: Vec::with_capacity(len * positions.len()),
+        radiance: Vec::with_capacity(len * positions.len()),
+        sky_distance,
+    };
+    for (d, n, r) in per_probe {
+        bake.distance.extend(d);
+        bake.normals.extend(n);
+        bake.radiance.extend(r);
+    }
+    bake
+}
+
+/// Base colour plus emission: tells surfaces apart, so radiance errors mean wrong surfaces.
+pub fn albedo_shade(scene: &Scene) -> impl Fn(&Hit, Vec3) -> Vec3 + Sync + '_ {
+    move |hit: &Hit, _| {
+        let m = &scene.materials()[hit.material as usize];
+        m.base_color + m.emissive
+    }
+}
+
+/// Emission plus one bounce of direct light from the scene's emissive triangles (a fixed
+/// 3×3 stratified set of points per emitter triangle), for irradiance tests.
+pub fn direct_light_shade(scene: &Scene) -> impl Fn(&Hit, Vec3) -> Vec3 + Sync + '_ {
+    let mut emitters = Vec::new();
+    for t in scene.triangles() {
+        let m = &scene.materials()[t.material as usize];
+        if m.emissive != Vec3::ZERO {
+            let n = t.geometric_normal();
+            let area = t.area();
+            for i in 0..3 {
+                for j in 0..3 {
+                    let (mut u, mut v) = ((i as f32 + 0.5) / 3.0, (j as f32 + 0.5) / 3.0);
+                    if u + v > 1.0 {
+                        (u, v) = (1.0 - u, 1.0 - v);
+                    }
+                    emitters.push((t.point(Vec2::new(u, v)), n, m.emissive, area / 9.0));
+                }
+            }
+        }
+    }
+    move |hit: &Hit, direction: Vec3| {
+        let m = &scene.materials()[hit.material as usize];
+        let mut n = hit.geometric_normal;
+        if n.dot(direction) > 0.0 {
+            n = -n;
+        }
+        let mut e = Vec3::ZERO;
+        for &(q, nq, le, area) in &emitters {
+            let v = q - hit.position;
+            let d2 = v.length_squared();
+            let w = v / d2.sqrt();
+            let cos_p = n.dot(w);
+            let cos_q = nq.dot(-w).abs();
+            if cos_p <= 0.0 || d2 <= 1e-8 {
+                continue;
+            }
+            let ray = Ray::from_surface(hit.position, n, w);
+            if !scene.occluded(&ray, d2.sqrt() * (1.0 - 1e-3)) {
+                e += le * (cos_p * cos_q * area / d2);
+            }
+        }
+        m.emissive + m.base_color * e / std::f32::consts::PI
+    }
+}
+
+/// Irradiance and distance-moment maps of a bake (DDGI sizes: 6² and 14²).
+pub struct LowRes {
+    pub positions: Vec<Vec3>,
+    pub irradiance: Vec<Vec3>,
+    pub moments: Vec<Vec2>,
+}
+
+impl LowRes {
+    pub fn of(bake: &Bake) -> LowRes {
+        let parts: Vec<(Vec<Vec3>, Vec<Vec2>)> = (0..bake.positions.len())
+            .into_par_iter()
+            .map(|p| {
+                let radiance = bake.radiance_map(p);
+                let distance = bake.distance_map(p);
+                let e = probe_octa::irradiance_map(&radiance, 6).unwrap();
+                let m =
+                    probe_octa::distance_moments(&distance, 14, probe_octa::default_sharpness(14))
+                        .unwrap();
+                (e.texels().to_vec(), m.texels().to_vec())
+            })
+            .collect();
+        let mut out = LowRes {
+            positions: bake.positions.clone(),
+            irradiance: Vec::new(),
+            moments: Vec::new(),
+        };
+        for (e, m) in parts {
+            out.irradiance.extend(e);
+            out.moments.extend(m);
+        }
+        out
+    }
+
+    pub fn field(&self) -> IrradianceField<'_> {
+        IrradianceField {
+            positions: &self.positions,
+            irradiance_resolution: 6,
+            irradiance: &self.irradiance,
+            moments_resolution: 14,
+            moments: &self.moments,
+        }
+    }
+}
+
+/// `probe_index::SceneGeometry` for a `probe_scene::Scene` (for building octrees in tests).
+pub struct Geometry<'a>(pub &'a Scene);
+
+impl SceneGeometry for Geometry<'_> {
+    fn triangle_count(&self) -> usize {
+        self.0.triangles().len()
+    }
+
+    fn triangle(&self, index: usize) -> [Vec3; 3] {
+        self.0.triangles()[index].positions
+    }
+
+    fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
+        self.0
+            .closest_hit(&Ray { origin, direction }, max_distance)
+            .map(|h| RayHit {
+                distance: h.t,
+                normal: h.geometric_normal,
+            })
+    }
+}
+
+/// Camera rays of a `width × height` image from the scene's default camera.
+pub fn camera_rays(scene: &Scene, width: u32, height: u32) -> Vec<Ray> {
+    let camera = scene.default_camera();
+    let mut rays = Vec::with_capacity((width * height) as usize);
+    for y in 0..height {
+        for x in 0..width {
+            rays.push(camera.ray(x, y, width, height, Vec2::ZERO));
+        }
+    }
+    rays
+}
+
+/// Mirror reflection rays from the first hits of `primary` (rays that hit nothing are dropped),
+/// with origins moved off the surface.
+pub fn reflection_rays(scene: &Scene, primary: &[Ray]) -> Vec<Ray> {
+    primary
+        .par_iter()
+        .filter_map(|ray| {
+            let hit = scene.closest_hit(ray, f32::INFINITY)?;
+            let mut n = hit.geometric_normal;
+            if n.dot(ray.direction) > 0.0 {
+                n = -n;
+            }
+            let r = ray.direction - 2.0 * ray.direction.dot(n) * n;
+            Some(Ray::from_surface(hit.position, n, r))
+        })
+        .collect()
+}
+
+pub fn to_trace_rays(rays: &[Ray]) -> Vec<TraceRay> {
+    rays.iter()
+        .map(|r| TraceRay::new(r.origin, r.direction))
+        .collect()
+}
+
+/// Accuracy of traced results against exact BVH hits of the same rays (BRIEF, "How quality is
+/// measured").
+#[derive(Debug, Default, Clone)]
+pub struct Accuracy {
+    pub rays: usize,
+    /// Rays with a true hit.
+    pub true_hits: usize,
+    /// Of those, hits some probe sees (unoccluded, at more than 0.1 cosine).
+    pub seen: usize,
+    /// Of those, answered Hit within one texel footprint of the true hit / within two.
+    pub seen_correct: usize,
+    pub seen_correct_2: usize,
+    /// Rays with a true hit answered Hit within one footprint / within two.
+    pub hits_correct: usize,
+    pub hits_correct_2: usize,
+    /// Rays that escape the scene, and those answered Miss.
+    pub escapes: usize,
+    pub escapes_correct: usize,
+    pub hits: usize,
+    pub misses: usize,
+    pub unknown: usize,
+    /// Answered Hit or Miss but wrong (not within two footprints, or the wrong status).
+    pub wrong_answers: usize,
+    /// Mean squared radiance error per channel over all rays.
+    pub radiance_mse: f64,
+}
+
+impl Accuracy {
+    /// The goal's figure: share of rays whose true hit some probe sees answered within one
+    /// texel footprint.
+    pub fn seen_rate(&self) -> f64 {
+        self.seen_correct as f64 / self.seen.max(1) as f64
+    }
+
+    /// Share of all rays answered right (hit within one footprint, or miss for escapes).
+    pub fn correct_rate(&self) -> f64 {
+        (self.hits_correct + self.escapes_correct) as f64 / self.rays.max(1) as f64
+    }
+}
+
+/// The angular diagonal of the interior texel holding `direction` (exact, from its corners).
+pub fn texel_diagonal(resolution: u32, direction: Vec3) -> f32 {
+    let layout = OctaLayout::new(resolution).unwrap();
+    let [ix, iy] = layout.texel_containing(direction);
+    let s = 2.0 / resolution as f32;
+    let (u, v) = (-1.0 + ix as f32 * s, -1.0 + iy as f32 * s);
+    let corner = |a: f32, b: f32| probe_octa::decode(Vec2::new(a, b));
+    let d1 = corner(u, v).angle_between(corner(u + s, v + s));
+    let d2 = corner(u + s, v).angle_between(corner(u, v + s));
+    d1.max(d2)
+}
+
+/// One texel footprint of probe `p` at surface point `y` with normal `n`: the texel's angular
+/// diagonal times the distance, over the cosine of incidence (at least 0.2).
+pub fn footprint(resolution: u32, p: Vec3, y: Vec3, n: Vec3) -> f32 {
+    let v = y - p;
+    let d = v.length();
+    let dir = v / d;
+    d * texel_diagonal(resolution, dir) / n.dot(dir).abs().max(0.2)
+}
+
+/// Compares results with the BVH truth.
+pub fn accuracy(
+    scene: &Scene,
+    bake: &Bake,
+    rays: &[Ray],
+    results: &[RayResult],
+    shade: &(dyn Fn(&Hit, Vec3) -> Vec3 + Sync),
+) -> Accuracy {
+    // (true hit, seen, correct, correct within 2, wrong answer, squared error)
+    let per_ray: Vec<(bool, bool, bool, bool, bool, f64)> = rays
+        .par_iter()
+        .zip(results.par_iter())
+        .map(|(ray, result)| {
+            let truth = scene.closest_hit(ray, f32::INFINITY);
+            let (reference, hit, seen, correct, correct_2) = match &truth {
+                Some(hit) => {
+                    let seen = bake.positions.iter().any(|&p| {
+                        let v = hit.position - p;
+                        let d = v.length();
+                        d > 1e-4
+                            && hit.geometric_normal.dot(v / d).abs() > 0.1
+                            && !scene.occluded(&Ray::new(p, v), d * (1.0 - 1e-4) - 1e-4)
+                    });
+                    let (correct, correct_2) = match (result.status, result.probe) {
+                        (RayStatus::Hit, Some(p)) => {
+                            let f = footprint(
+                                bake.resolution,
+                                bake.positions[p as usize],
+                                hit.position,
+                                hit.geometric_normal,
+                            );
+                            let e = (result.position - hit.position).length();
+                            (e <= f, e <= 2.0 * f)
+                        }
+                        _ => (false, false),
+                    };
+                    (shade(hit, ray.direction), true, seen, correct, correct_2)
+                }
+                None => {
+                    let ok = result.status == RayStatus::Miss;
+                    (SKY, false, false, ok, ok)
+                }
+            };
+            let wrong = result.status != RayStatus::Unknown && !correct_2;
+            let e = result.radiance - reference;
+            let se = f64::from(e.length_squared()) / 3.0;
+            (hit, seen, correct, correct_2, wrong, se)
+        })
+        .collect();
+    let mut a = Accuracy {
+        rays: rays.len(),
+        ..Accuracy::default()
+    };
+    let mut se = 0.0;
+    for ((hit, seen, correct, correct_2, wrong, e), result) in per_ray.into_iter().zip(results) {
+        if hit {
+            a.true_hits += 1;
+            a.seen += usize::from(seen);
+            a.seen_correct += usize::from(seen && correct);
+            a.seen_correct_2 += usize::from(seen && correct_2);
+            a.hits_correct += usize::from(correct);
+            a.hits_correct_2 += usize::from(correct_2);
+        } else {
+            a.escapes += 1;
+            a.escapes_correct += usize::from(correct);
+        }
+        a.wrong_answers += usize::from(wrong);
+        se += e;
+        match result.status {
+            RayStatus::Hit => a.hits += 1,
+            RayStatus::Miss => a.misses += 1,
+            RayStatus::Unknown => a.unknown += 1,
+        }
+    }
+    a.radiance_mse = se / rays.len().max(1) as f64;
+    a
+}
+
+/// A GPU tracer, or `None` (with a message) when no adapter exists; under
+/// `PROBE_REQUIRE_GPU=1` a missing adapter fails the test instead.
+pub fn gpu_tracer() -> Option<GpuTracer> {
+    match GpuContext::new() {
+        Ok(context) => {
+            Some(GpuTracer::new(&context).expect("the device builds the tracer's pipelines"))
+        }
+        Err(error) => {
+            if std::env::var("PROBE_REQUIRE_GPU").as_deref() == Ok("1") {
+                panic!("PROBE_REQUIRE_GPU=1 but no GPU is usable: {error}");
+            }
+            eprintln!("skipping GPU test: {error} (set PROBE_REQUIRE_GPU=1 to fail instead)");
+            None
+        }
+    }
+}
