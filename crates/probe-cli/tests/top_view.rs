@@ -215,3 +215,69 @@ fn bad_options_are_errors() {
     let e = write_top_view(&scene, &probe, &base, &missing).unwrap_err();
     assert!(matches!(e, TopViewError::Write { .. }) && e.to_string().contains("top.png"));
 }
+
+#[test]
+fn renders_are_deterministic() {
+    let scene = Scene::builtin("colonnade").unwrap();
+    let probes = vec![Vec3::new(-3.0, 2.0, 1.0), Vec3::new(4.0, 6.5, -2.0)];
+    let options = TopViewOptions {
+        width: 200,
+        cut_height: Some(5.0),
+        number_probes: true,
+        ..TopViewOptions::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.png"), dir.path().join("b.png"));
+    write_top_view(&scene, &probes, &options, &a).unwrap();
+    write_top_view(&scene, &probes, &options, &b).unwrap();
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}
+
+/// Sponza from above, cut at 12 m (above the gallery floor at 9.6 m): decodes at the given
+/// width, shows the cut walls and columns as dark sections, and says how long it took.
+/// About 10 s in the dev profile; run with
+/// `cargo test --release -p probe-cli --test top_view -- --ignored --nocapture sponza`.
+#[test]
+#[ignore = "loads Sponza (262k triangles): run in release, see the comment"]
+fn sponza_top_view_timing() {
+    let start = std::time::Instant::now();
+    let scene = Scene::load(probe_testdata::scene_path(probe_testdata::SPONZA)).unwrap();
+    let loaded = start.elapsed();
+    let bounds = scene.bounds();
+    let probes: Vec<Vec3> = probe_scene::builtin::grid_cell_centers(&bounds, [6, 3, 4]);
+    let dir = tempfile::tempdir().unwrap();
+    let out = keep_dir().unwrap_or(dir.path().to_path_buf());
+    for (name, cut) in [("sponza_top.png", None), ("sponza_cut.png", Some(12.0))] {
+        let options = TopViewOptions {
+            width: 1000,
+            cut_height: cut,
+            number_probes: true,
+            caption: Some("Sponza, 6×3×4 grid".to_owned()),
+            ..TopViewOptions::default()
+        };
+        let t = std::time::Instant::now();
+        let layout = write_top_view(&scene, &probes, &options, &out.join(name)).unwrap();
+        let took = t.elapsed();
+        let image = image::open(out.join(name)).unwrap().to_rgb8();
+        assert_eq!(image.width(), 1000);
+        let map_pixels = (layout.width * layout.map_height) as f64;
+        let dark = image
+            .pixels()
+            .take(map_pixels as usize)
+            .filter(|p| p.0.iter().all(|&v| v < 70))
+            .count() as f64
+            / map_pixels;
+        println!(
+            "{name}: {}×{} px, 4 rays per pixel{}: {:.3} s (scene load {:.3} s); dark (section) share {:.1} %",
+            layout.width,
+            layout.height,
+            if cut.is_some() { " plus section tests" } else { "" },
+            took.as_secs_f64(),
+            loaded.as_secs_f64(),
+            dark * 100.0
+        );
+        if cut.is_some() {
+            assert!(dark > 0.01, "no cut walls or columns visible");
+        }
+    }
+}
