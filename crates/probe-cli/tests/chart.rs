@@ -296,3 +296,42 @@ fn pareto_front_hand_made_cases() {
     }
     assert!(front.windows(2).all(|w| cloud[w[0]].0 <= cloud[w[1]].0));
 }
+
+#[test]
+fn same_spec_same_bytes() {
+    let (_guard, dir) = out_dir();
+    let spec = speed_accuracy_spec();
+    let (a_png, a_svg) = (dir.join("det_a.png"), dir.join("det_a.svg"));
+    let (b_png, b_svg) = (dir.join("det_b.png"), dir.join("det_b.svg"));
+    write_chart(&spec, &a_png, &a_svg).unwrap();
+    write_chart(&spec, &b_png, &b_svg).unwrap();
+    assert_eq!(
+        std::fs::read(&a_png).unwrap(),
+        std::fs::read(&b_png).unwrap()
+    );
+    assert_eq!(
+        std::fs::read(&a_svg).unwrap(),
+        std::fs::read(&b_svg).unwrap()
+    );
+}
+
+#[test]
+fn many_series_cycle_colours_and_markers() {
+    let (_guard, dir) = out_dir();
+    let mut spec = ChartSpec::new("nine methods", "probes", "coverage");
+    spec.series = (0..9)
+        .map(|s| {
+            let points = (1..=6)
+                .map(|k| Point::new(k as f64 * 8.0, 1.0 - 0.5 / (k as f64 + s as f64 * 0.3)))
+                .collect();
+            Series::new(format!("method {s}"), SeriesStyle::LineAndMarkers, points)
+        })
+        .collect();
+    let (png, svg) = (dir.join("nine.png"), dir.join("nine.svg"));
+    let summary = write_chart(&spec, &png, &svg).unwrap();
+    assert_eq!(summary.points_drawn, 54);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    for s in 0..9 {
+        assert!(text.contains(&format!("method {s}")));
+    }
+}

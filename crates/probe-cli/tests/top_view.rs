@@ -271,7 +271,11 @@ fn sponza_top_view_timing() {
             "{name}: {}×{} px, 4 rays per pixel{}: {:.3} s (scene load {:.3} s); dark (section) share {:.1} %",
             layout.width,
             layout.height,
-            if cut.is_some() { " plus section tests" } else { "" },
+            if cut.is_some() {
+                " plus section tests"
+            } else {
+                ""
+            },
             took.as_secs_f64(),
             loaded.as_secs_f64(),
             dark * 100.0
