@@ -1,0 +1,158 @@
+//! Where a probe may stand: inside the placement bounds, not inside solid geometry, not
+//! touching a surface.
+
+use glam::Vec3;
+use probe_scene::{Aabb, Ray, Scene};
+
+/// Decides where probes may stand. The optimisers only move probes to points for which
+/// [`FreeSpace::is_free`] holds, and [`PlacementReport`](crate::PlacementReport) counts the
+/// probes for which [`FreeSpace::inside_geometry`] holds.
+///
+/// [`BackfaceVote`] is the implementation this crate ships; a voxel classification (for example
+/// an SDF's free-space voxels) can implement the trait too.
+pub trait FreeSpace: Sync {
+    /// The box probes must stay in.
+    fn bounds(&self) -> Aabb;
+
+    /// Whether a probe at `point` would be inside solid geometry.
+    fn inside_geometry(&self, point: Vec3) -> bool;
+
+    /// Whether a probe may stand at `point`: inside [`FreeSpace::bounds`] and not inside
+    /// geometry. Implementations may add conditions (such as a clearance from surfaces).
+    fn is_free(&self, point: Vec3) -> bool {
+        point.is_finite() && self.bounds().contains(point) && !self.inside_geometry(point)
+    }
+}
+
+/// The number of rays [`BackfaceVote`] casts from each point.
+pub const BACKFACE_VOTE_RAYS: usize = 32;
+
+/// A ray vote for "inside geometry", as DDGI classifies probes: cast
+/// [`BACKFACE_VOTE_RAYS`] rays from the point in a fixed spherical Fibonacci pattern; the point
+/// is inside geometry when more than `backface_fraction` of them first hit the back face of a
+/// single-sided triangle (seen from inside a closed solid, every face is a back face).
+///
+/// Double-sided materials have no back face, so a point next to or between double-sided
+/// surfaces (an open, zero-thickness mesh such as a two-sided plane) is never inside. Rays
+/// that escape the scene vote "outside". [`FreeSpace::is_free`] additionally requires the
+/// point to lie in the bounds and no ray to hit a surface closer than `min_clearance`.
+#[derive(Clone, Copy, Debug)]
+pub struct BackfaceVote<'a> {
+    scene: &'a Scene,
+    /// The box probes must stay in (the scene's bounds by default).
+    pub bounds: Aabb,
+    /// The share of rays that must hit back faces for the point to count as inside
+    /// geometry; default 0.25 (DDGI's probe classification uses the same share).
+    pub backface_fraction: f32,
+    /// The smallest distance to a surface, along any of the rays, at which a probe may stand;
+    /// default 0.25 % of the scene's bounding-box diagonal.
+    pub min_clearance: f32,
+}
+
+impl<'a> BackfaceVote<'a> {
+    /// The vote over `scene` with the defaults: the scene's bounds, a back-face share of 0.25
+    /// and a clearance of 0.25 % of the bounds' diagonal.
+    pub fn new(scene: &'a Scene) -> BackfaceVote<'a> {
+        let bounds = scene.bounds();
+        BackfaceVote {
+            scene,
+            bounds,
+            backface_fraction: 0.25,
+            min_clearance: 0.0025 * bounds.size().length(),
+        }
+    }
+
+    /// The same vote restricted to another box.
+    pub fn with_bounds(self, bounds: Aabb) -> BackfaceVote<'a> {
+        BackfaceVote { bounds, ..self }
+    }
+
+    /// Casts the rays: (back-face hits, nearest hit distance).
+    fn vote(&self, point: Vec3) -> (usize, f32) {
+        let mut backfaces = 0;
+        let mut nearest = f32::INFINITY;
+        let materials = self.scene.materials();
+        for direction in vote_directions() {
+            let ray = Ray::new(point, direction);
+            if let Some(hit) = self.scene.closest_hit(&ray, f32::INFINITY) {
+                nearest = nearest.min(hit.t);
+                if !hit.front_face && !materials[hit.material as usize].double_sided {
+                    backfaces += 1;
+                }
+            }
+        }
+        (backfaces, nearest)
+    }
+
+    fn inside_from_vote(&self, backfaces: usize) -> bool {
+        backfaces as f32 > self.backface_fraction * BACKFACE_VOTE_RAYS as f32
+    }
+}
+
+impl FreeSpace for BackfaceVote<'_> {
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    fn inside_geometry(&self, point: Vec3) -> bool {
+        self.inside_from_vote(self.vote(point).0)
+    }
+
+    fn is_free(&self, point: Vec3) -> bool {
+        if !point.is_finite() || !self.bounds.contains(point) {
+            return false;
+        }
+        let (backfaces, nearest) = self.vote(point);
+        !self.inside_from_vote(backfaces) && nearest >= self.min_clearance
+    }
+}
+
+/// The fixed spherical Fibonacci directions of [`BackfaceVote`]. The pattern is rotated by an
+/// irrational angle so that no ray runs along a coordinate axis (axis-aligned rays graze
+/// axis-aligned walls).
+fn vote_directions() -> impl Iterator<Item = Vec3> {
+    let n = BACKFACE_VOTE_RAYS as f32;
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..BACKFACE_VOTE_RAYS).map(move |i| {
+        let z = 1.0 - (2.0 * i as f32 + 1.0) / n;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = golden * i as f32 + 0.1234;
+        Vec3::new(r * phi.cos(), z, r * phi.sin())
+    })
+}
+
+/// The centres of a regular grid of cells of edge `spacing` over `free.bounds()` that are
+/// free ([`FreeSpace::is_free`]), x fastest then y then z. Per axis the grid has
+/// `max(1, round(extent / spacing))` cells and is centred in the bounds. Used as the default
+/// reference points of an [`Atlas`](crate::Atlas) and as a dense candidate pool for
+/// [`minimal_cover`](crate::minimal_cover). The classification runs in parallel.
+///
+/// Returns an empty list for a non-positive or non-finite `spacing` or empty bounds.
+pub fn free_space_grid(free: &dyn FreeSpace, spacing: f32) -> Vec<Vec3> {
+    use rayon::prelude::*;
+    let bounds = free.bounds();
+    if !(spacing.is_finite() && spacing > 0.0) || bounds.is_empty() {
+        return Vec::new();
+    }
+    let size = bounds.size();
+    let dims = (size / spacing).round().max(Vec3::ONE);
+    if dims.x * dims.y * dims.z > 1.0e8 {
+        return Vec::new();
+    }
+    let cell = size / dims;
+    let (nx, ny, nz) = (dims.x as u32, dims.y as u32, dims.z as u32);
+    let points: Vec<Vec3> = (0..nz)
+        .flat_map(|z| (0..ny).flat_map(move |y| (0..nx).map(move |x| (x, y, z))))
+        .map(|(x, y, z)| bounds.min + (Vec3::new(x as f32, y as f32, z as f32) + 0.5) * cell)
+        .collect();
+    let free_flags: Vec<bool> = points
+        .par_iter()
+        .with_min_len(16)
+        .map(|p| free.is_free(*p))
+        .collect();
+    points
+        .into_iter()
+        .zip(free_flags)
+        .filter_map(|(p, ok)| ok.then_some(p))
+        .collect()
+}
