@@ -157,7 +157,10 @@ pub fn prune_redundant(
     if probes.is_empty() {
         return Err(MinimalSetError::NoCandidates { given: 0 });
     }
-    let views: Vec<Vec<ProbeView>> = probes.par_iter().map(|p| atlas.probe_views(*p)).collect();
+    let views: Vec<Vec<u32>> = probes
+        .par_iter()
+        .map(|p| texel_ids(atlas.probe_views(*p)))
+        .collect();
     let all: Vec<usize> = (0..probes.len()).collect();
     let (kept, before, after) = prune_views(&views, &all, min_coverage, atlas.samples().len());
     Ok(Pruned {
@@ -167,9 +170,14 @@ pub fn prune_redundant(
     })
 }
 
-/// Prunes `members` (indices into `views`); returns (kept, coverage before, after).
+fn texel_ids(views: Vec<ProbeView>) -> Vec<u32> {
+    views.into_iter().map(|v| v.sample).collect()
+}
+
+/// Prunes `members` (indices into `views`, the texels each sees); returns (kept, coverage
+/// before, after).
 fn prune_views(
-    views: &[Vec<ProbeView>],
+    views: &[Vec<u32>],
     members: &[usize],
     min_coverage: f32,
     texels: usize,
@@ -177,7 +185,7 @@ fn prune_views(
     let mut count = vec![0u32; texels];
     for &m in members {
         for v in &views[m] {
-            count[v.sample as usize] += 1;
+            count[*v as usize] += 1;
         }
     }
     let mut covered = count.iter().filter(|c| **c > 0).count();
@@ -187,13 +195,10 @@ fn prune_views(
     order.sort_by_key(|&m| (views[m].len(), m));
     let mut dropped = vec![false; views.len()];
     for m in order {
-        let lost = views[m]
-            .iter()
-            .filter(|v| count[v.sample as usize] == 1)
-            .count();
+        let lost = views[m].iter().filter(|v| count[**v as usize] == 1).count();
         if covered - lost >= floor {
             for v in &views[m] {
-                count[v.sample as usize] -= 1;
+                count[*v as usize] -= 1;
             }
             covered -= lost;
             dropped[m] = true;
@@ -245,9 +250,10 @@ pub fn minimal_cover(
         });
     }
     let texels = atlas.samples().len();
-    let views: Vec<Vec<ProbeView>> = usable
+    // Only the texel indices are kept: dense pools hold tens of millions of views.
+    let views: Vec<Vec<u32>> = usable
         .par_iter()
-        .map(|&i| atlas.probe_views(candidates[i]))
+        .map(|&i| texel_ids(atlas.probe_views(candidates[i])))
         .collect();
     let needed = needed_texels(params.target_coverage, texels);
     let budget = params.budget.unwrap_or(usize::MAX);
@@ -266,7 +272,7 @@ pub fn minimal_cover(
         let Some((_, Reverse(u))) = heap.pop() else {
             break;
         };
-        let gain = views[u].iter().filter(|v| !seen[v.sample as usize]).count();
+        let gain = views[u].iter().filter(|v| !seen[**v as usize]).count();
         if gain == 0 {
             continue;
         }
@@ -277,7 +283,7 @@ pub fn minimal_cover(
             continue;
         }
         for v in &views[u] {
-            let s = &mut seen[v.sample as usize];
+            let s = &mut seen[*v as usize];
             if !*s {
                 *s = true;
                 covered += 1;
@@ -296,7 +302,7 @@ pub fn minimal_cover(
         let mut seen = vec![false; texels];
         for &u in &chosen_usable {
             for v in &views[u] {
-                seen[v.sample as usize] = true;
+                seen[*v as usize] = true;
             }
         }
         seen.iter().filter(|s| **s).count() as f64 / texels as f64
@@ -329,12 +335,8 @@ pub fn minimal_cover(
 mod tests {
     use super::*;
 
-    fn view(sample: u32) -> ProbeView {
-        ProbeView {
-            sample,
-            view_cosine: 1.0,
-            distance: 1.0,
-        }
+    fn view(sample: u32) -> u32 {
+        sample
     }
 
     #[test]

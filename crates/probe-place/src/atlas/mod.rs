@@ -248,16 +248,7 @@ impl<'a> Atlas<'a> {
             return Err(AtlasError::NoReferencePoints);
         }
         let mut atlas = Atlas::build_unfiltered(scene, params)?;
-        let seen: Vec<bool> = atlas
-            .samples
-            .par_iter()
-            .with_min_len(64)
-            .map(|sample| {
-                reference_points
-                    .iter()
-                    .any(|p| atlas.view_of(sample, 0, *p).is_some())
-            })
-            .collect();
+        let seen = atlas.seen_by_any(reference_points);
         let before = atlas.samples.len();
         let mut keep = seen.iter();
         atlas.samples.retain(|_| *keep.next().unwrap_or(&false));
@@ -408,6 +399,37 @@ impl<'a> Atlas<'a> {
         chunks.concat()
     }
 
+    /// [`Atlas::probe_views`] restricted to the texels whose index is `phase` modulo
+    /// `stride` (a subset for cheap estimates).
+    pub(crate) fn probe_views_strided(
+        &self,
+        probe: Vec3,
+        stride: usize,
+        phase: usize,
+    ) -> Vec<ProbeView> {
+        const CHUNK: usize = 512;
+        let stride = stride.max(1);
+        if stride == 1 {
+            return self.probe_views(probe);
+        }
+        if !probe.is_finite() {
+            return Vec::new();
+        }
+        let count = self.samples.len().saturating_sub(phase).div_ceil(stride);
+        let chunks: Vec<Vec<ProbeView>> = (0..count.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                (c * CHUNK..((c + 1) * CHUNK).min(count))
+                    .filter_map(|j| {
+                        let i = phase + j * stride;
+                        self.view_of(&self.samples[i], i, probe)
+                    })
+                    .collect()
+            })
+            .collect();
+        chunks.concat()
+    }
+
     /// [`Atlas::probe_views`] for many probes at once.
     pub fn views_of_probes(&self, probes: &[Vec3]) -> Vec<Vec<ProbeView>> {
         probes.iter().map(|p| self.probe_views(*p)).collect()
@@ -452,10 +474,22 @@ impl<'a> Atlas<'a> {
         best
     }
 
+    /// Whether each texel is seen by at least one of `probes`. Texel-major and parallel over
+    /// texels: each texel stops at the first probe that sees it, which makes this much
+    /// cheaper than collecting every probe's views when many probes see the same texels.
+    pub fn seen_by_any(&self, probes: &[Vec3]) -> Vec<bool> {
+        self.samples
+            .par_iter()
+            .enumerate()
+            .with_min_len(64)
+            .map(|(i, s)| probes.iter().any(|p| self.view_of(s, i, *p).is_some()))
+            .collect()
+    }
+
     /// The share of texels that at least one of `probes` sees (in `[0, 1]`).
     pub fn coverage(&self, probes: &[Vec3]) -> f64 {
-        let best = self.best_view_cosines(probes);
-        best.iter().filter(|c| **c > 0.0).count() as f64 / best.len() as f64
+        let seen = self.seen_by_any(probes);
+        seen.iter().filter(|s| **s).count() as f64 / seen.len() as f64
     }
 }
 

@@ -170,6 +170,49 @@ impl<'s, 'a> AtlasState<'s, 'a> {
         }
     }
 
+    /// The change of the summed texel fitness over the texels whose index is `phase` modulo
+    /// `stride`, if probe `k` saw `new_views` (which must hold only such texels, in order)
+    /// there instead of its own views. An estimate of [`AtlasState::evaluate_move`]'s change
+    /// from a subset of texels.
+    pub(crate) fn subset_delta(
+        &self,
+        k: usize,
+        new_views: &[ProbeView],
+        stride: usize,
+        phase: usize,
+    ) -> f64 {
+        let scale = self.atlas.distance_scale();
+        let in_subset = |v: &&ProbeView| v.sample as usize % stride == phase;
+        let mut old = self.views[k].iter().filter(in_subset).peekable();
+        let mut new = new_views.iter().peekable();
+        let mut delta = 0.0f64;
+        loop {
+            let old_t = old.peek().map_or(u32::MAX, |v| v.sample);
+            let new_t = new.peek().map_or(u32::MAX, |v| v.sample);
+            if old_t == u32::MAX && new_t == u32::MAX {
+                break;
+            }
+            let t = old_t.min(new_t) as usize;
+            let old_score = if old_t as usize == t {
+                old.next().map(|v| self.weights.score(v, scale))
+            } else {
+                None
+            };
+            let new_score = if new_t as usize == t {
+                new.next().map(|v| self.weights.score(v, scale))
+            } else {
+                None
+            };
+            let without = self.value_without(t, k, old_score);
+            let after = match new_score {
+                Some(s) => combine(self.weights.aggregation, without, s),
+                None => without,
+            };
+            delta += after as f64 - self.value[t] as f64;
+        }
+        delta
+    }
+
     /// Moves probe `k` to `position`, whose views are `new_views` (in texel order, from
     /// [`Atlas::probe_views`]), and updates every texel it saw or sees.
     pub fn move_probe(&mut self, k: usize, position: Vec3, new_views: Vec<ProbeView>) {
