@@ -60,7 +60,7 @@ impl<'a> PointLightOracle<'a> {
     fn facing(&self, point: Vec3) -> (Vec3, Vec3) {
         let offset = self.position - point;
         let distance = offset.length();
-        if !(distance > 1e-4) {
+        if distance.is_nan() || distance <= 1e-4 {
             return (self.intensity * 1e8, Vec3::ZERO);
         }
         let direction = offset / distance;
@@ -158,7 +158,7 @@ fn signature(oracle: &dyn LightingOracle, point: Vec3) -> [f32; 26] {
 /// "different".
 pub fn contrast(a: &[f32; 26], b: &[f32; 26]) -> f32 {
     let scale = a.iter().chain(b.iter()).cloned().fold(0.0f32, f32::max);
-    if !(scale > 0.0) {
+    if scale.is_nan() || scale <= 0.0 {
         return 0.0;
     }
     a.iter()
@@ -600,7 +600,7 @@ pub fn gradient_ascent(
                 }
                 let g = irradiance_gradient(oracle, c.position);
                 let length = g.length();
-                if !(length > 0.0) || !length.is_finite() {
+                if length <= 0.0 || !length.is_finite() {
                     c.done = true;
                     return (c, false, false);
                 }

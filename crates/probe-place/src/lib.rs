@@ -1,6 +1,78 @@
-//! Automatic placement of radiance probes: candidate positions, the visibility atlas that
-//! measures how well a probe set sees a scene, optimisers that move probes to see more, minimal
-//! sets that keep only the probes a scene needs, and seed 002's irradiance-driven methods.
+//! `probe_place`: automatic placement of radiance probes in a 3-D scene.
+//!
+//! Engines place light-field probes by hand or in wasteful regular grids. This crate makes
+//! probe positions from the scene's geometry ([`probe_scene::Scene`]) and returns them as a
+//! [`ProbeSet`], saved as `probes/1` JSON.
+//!
+//! # Candidates
+//!
+//! - [`RegularGrid`]: the baseline, probes at the cell centres of a division of the scene's
+//!   bounds (`grid:4x2x4` in [`ProbeSet::from_spec`]); [`classify_grid`] is the fair
+//!   baseline, DDGI-style classification (probes inside geometry switched off) and relocation
+//!   (probes moved at most 45 % of a cell towards free space).
+//! - [`VoxelGrid`]: the scene voxelized, each voxel free, surface or inside a solid, with an
+//!   exact Euclidean [`DistanceField`]; the free-space test of every generator below.
+//! - [`sdf_candidates`]: seed 000 §3.1.1, Alg. 1: the skeleton of the distance field,
+//!   clustered into probes.
+//! - [`medial_candidates`]: seed 000 §3.1.2: area-weighted [`sample_surfaces`], masbcpp's
+//!   shrinking balls, and clusters of the medial balls.
+//! - [`inside_geometry`]: the "is this probe inside geometry" test placement reports use.
+//!
+//! ```
+//! use probe_place::{ClassifyParams, ProbeSet, RegularGrid, classify_grid, inside_geometry};
+//! use probe_place::{SdfParams, sdf_candidates};
+//! use probe_scene::Scene;
+//!
+//! // `boxes` hides a closed box at every cell centre of a 4×2×4 grid (seed 003, Fig. 8.2).
+//! let scene = Scene::open("builtin:boxes")?;
+//! let grid = ProbeSet::from_spec("grid:4x2x4", &scene)?;
+//! assert_eq!(grid.len(), 32);
+//! assert!(grid.positions.iter().all(|&p| inside_geometry(&scene, p)));
+//!
+//! // DDGI relocation moves every probe out of its box, within 45 % of its cell.
+//! let relocated = classify_grid(
+//!     &scene,
+//!     &RegularGrid::over_scene(&scene, [4, 2, 4])?,
+//!     &ClassifyParams::default(),
+//! )?;
+//! assert_eq!(relocated.positions.len(), 32);
+//! assert!(relocated.positions.iter().all(|&p| !inside_geometry(&scene, p)));
+//!
+//! // The SDF skeleton places far fewer probes, all in free space.
+//! let params = SdfParams { voxel_size: 0.1, ..SdfParams::for_scene(&scene) };
+//! let sdf = sdf_candidates(&scene, &params)?;
+//! assert!(sdf.probes.len() < 32);
+//! assert!(sdf.probes.positions.iter().all(|&p| sdf.voxels.is_free(p)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! ## Design choices (candidates)
+//!
+//! - **Free space is what a flood fill reaches from outside the bounds** (seed 000's
+//!   "bounding box minus the geometry"), so open, double-sided and non-manifold meshes work;
+//!   sealed pockets are then decided by a front/back-face vote, so closed rooms (whose air no
+//!   flood reaches) stay free and closed solids are inside. See [`VoxelGrid`] for the rules
+//!   and why not a winding number or ray parity.
+//! - **The skeleton is the ridge of the exact distance field** (voxels at least as far from
+//!   geometry as both neighbours along some axis), beyond a clearance threshold: a thin
+//!   skeleton as in seed 000's Fig. 3.3a rather than a thick eroded volume.
+//! - **Clusters are what one probe sees.** Both generators cluster by greedy covering from
+//!   the widest point down: a seed stands for the skeleton voxels (or medial balls) it sees
+//!   within a multiple of its clearance. A convex room is one probe, every hidden region gets
+//!   its own, and density follows the size of the space (a hall's probe reaches farther than
+//!   a corridor's). Seed 000 clustered by "normals and curvature similarities" without
+//!   details; visibility is what coverage needs.
+//! - **Probes stay inside the scene's bounds and out of geometry**: a cluster mean outside
+//!   free space, or failing [`inside_geometry`], moves to the nearest member that passes.
+//! - **Deterministic**: the SDF skeleton uses no randomness; the medial axis draws its
+//!   surface samples from a seeded PCG; the same input gives the same [`ProbeSet`] bytes.
+//!
+//! # Visibility atlas, optimisation, minimal sets and irradiance-driven placement
+//!
+//! How well a probe set sees the scene ([`Atlas`], [`PlacementReport`]), moving probes to see
+//! more ([`descend`], [`gibbs`]), keeping only the probes a scene needs ([`prune_redundant`],
+//! [`minimal_cover`]), and seed 002's lighting-driven placement ([`spawn_and_merge`],
+//! [`gradient_ascent`]).
 //!
 //! ```
 //! use probe_place::{
@@ -33,8 +105,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! # Visibility atlas, optimisation, minimal sets and irradiance-driven placement
-//!
 //! **The atlas** ([`Atlas`], seed 000 §3.2.1). Instead of unwrapping the scene into a texture,
 //! the surfaces are cut into equal-area point samples ("texels"): a triangle of area `A` gets
 //! `⌊A / texel_size² + u⌋` of them (`u` seeded per triangle), so every texel stands for the same
@@ -54,11 +124,12 @@
 //! it is a target placements can meet, and its spacing is the resolution at which "visible from
 //! free space" is judged.
 //!
-//! **Free space** ([`FreeSpace`], [`BackfaceVote`]): a point is inside geometry when more than a
-//! quarter of 32 rays from it first hit the back of a single-sided triangle (DDGI's probe
-//! classification). Open and double-sided meshes (a two-sided plane) have no inside. Probes
-//! must also stay in the bounds and keep a small clearance from surfaces. Any voxel
-//! classification (an SDF's free voxels) can implement the trait instead.
+//! **Free space** ([`FreeSpace`]). [`BackfaceVote`] is [`inside_geometry`]'s ray vote (more
+//! than a quarter of 64 rays hit the back of a single-sided triangle) plus the bounds and a
+//! small clearance from surfaces; open and double-sided meshes (a two-sided plane) have no
+//! inside. [`VoxelFreeSpace`] uses the SDF generator's [`VoxelGrid`] instead. Either decides
+//! where optimisers may move probes, which reference points an atlas uses and what a report
+//! counts as "inside geometry".
 //!
 //! **The reward** (eq. 3.1–3.2, [`RewardWeights`], [`AtlasState`]). A probe's score for a
 //! texel it sees is `w1 · cos + w2 · min(d / scale, 1)`. By default a texel's fitness is its
@@ -101,20 +172,37 @@
 #![forbid(unsafe_code)]
 
 mod atlas;
+mod candidate_error;
+mod cluster;
+mod grid;
 mod irradiance;
+mod medial;
 mod minimal;
 mod optimize;
+mod probes;
 mod report;
+mod sdf;
+mod voxel;
 
 pub use atlas::{
-    Atlas, AtlasError, AtlasParams, AtlasState, BACKFACE_VOTE_RAYS, BackfaceVote,
-    DEFAULT_MIN_VIEW_COSINE, Evaluation, FreeSpace, MAX_TEXELS, ProbeView, RewardWeights,
-    SurfaceSample, TexelAggregation, free_space_grid,
+    Atlas, AtlasError, AtlasParams, AtlasState, BackfaceVote, DEFAULT_MIN_VIEW_COSINE, Evaluation,
+    FreeSpace, MAX_TEXELS, ProbeView, RewardWeights, SurfaceSample, TexelAggregation,
+    VoxelFreeSpace, free_space_grid,
+};
+pub use candidate_error::{CandidateError, ValidRange};
+pub use cluster::ClusterStats;
+pub use grid::{
+    ClassifiedGrid, ClassifyParams, INSIDE_BACKFACE_SHARE, INSIDE_TEST_RAYS, MAX_GRID_DIM,
+    MAX_GRID_PROBES, MAX_RELOCATION_FRACTION, RegularGrid, classify_grid, inside_geometry,
 };
 pub use irradiance::{
     GradientAscentParams, IrradianceError, IrradiancePlacement, LightingOracle, PointLightOracle,
     SpawnMergeParams, SpawnMergeStep, contrast, gradient_ascent, irradiance_gradient, k_means,
     sample_directions, spawn_and_merge,
+};
+pub use medial::{
+    MAX_SURFACE_SAMPLES, MedialBall, MedialCandidates, MedialParams, SurfacePoint,
+    medial_candidates, sample_surfaces,
 };
 pub use minimal::{
     CoverParams, MinimalSet, MinimalSetError, Pruned, minimal_cover, prune_redundant,
@@ -122,4 +210,7 @@ pub use minimal::{
 pub use optimize::{
     DescentParams, GibbsParams, IterationRecord, OptimizeError, Optimized, descend, gibbs,
 };
+pub use probes::{PROBE_SET_FORMAT, ProbeSet, ProbeSetError};
 pub use report::{COVERAGE_RULE, PlacementReport};
+pub use sdf::{SdfCandidates, SdfParams, sdf_candidates};
+pub use voxel::{DistanceField, MAX_VOXELS, MAX_VOXELS_PER_AXIS, VoxelGrid, VoxelState};

@@ -1,6 +1,8 @@
 //! Where a probe may stand: inside the placement bounds, not inside solid geometry, not
 //! touching a surface.
 
+use crate::grid::{INSIDE_BACKFACE_SHARE, INSIDE_TEST_RAYS, fibonacci_directions};
+use crate::voxel::{VoxelGrid, VoxelState};
 use glam::Vec3;
 use probe_scene::{Aabb, Ray, Scene};
 
@@ -8,8 +10,8 @@ use probe_scene::{Aabb, Ray, Scene};
 /// [`FreeSpace::is_free`] holds, and [`PlacementReport`](crate::PlacementReport) counts the
 /// probes for which [`FreeSpace::inside_geometry`] holds.
 ///
-/// [`BackfaceVote`] is the implementation this crate ships; a voxel classification (for example
-/// an SDF's free-space voxels) can implement the trait too.
+/// [`BackfaceVote`] (a ray vote) and [`VoxelFreeSpace`] (the SDF generator's voxels) implement
+/// it.
 pub trait FreeSpace: Sync {
     /// The box probes must stay in.
     fn bounds(&self) -> Aabb;
@@ -24,25 +26,27 @@ pub trait FreeSpace: Sync {
     }
 }
 
-/// The number of rays [`BackfaceVote`] casts from each point.
-pub const BACKFACE_VOTE_RAYS: usize = 32;
-
-/// A ray vote for "inside geometry", as DDGI classifies probes: cast
-/// [`BACKFACE_VOTE_RAYS`] rays from the point in a fixed spherical Fibonacci pattern; the point
-/// is inside geometry when more than `backface_fraction` of them first hit the back face of a
-/// single-sided triangle (seen from inside a closed solid, every face is a back face).
+/// The free-space test of this crate's placements: DDGI's classification, as
+/// [`inside_geometry`](crate::inside_geometry) decides it — of
+/// [`INSIDE_TEST_RAYS`](crate::INSIDE_TEST_RAYS) rays in fixed spherical Fibonacci directions,
+/// more than `backface_fraction` (default [`INSIDE_BACKFACE_SHARE`]) first hit the back face of
+/// a single-sided triangle (seen from inside a closed solid, every face is a back face) — plus
+/// the bounds and a clearance.
 ///
 /// Double-sided materials have no back face, so a point next to or between double-sided
 /// surfaces (an open, zero-thickness mesh such as a two-sided plane) is never inside. Rays
 /// that escape the scene vote "outside". [`FreeSpace::is_free`] additionally requires the
-/// point to lie in the bounds and no ray to hit a surface closer than `min_clearance`.
-#[derive(Clone, Copy, Debug)]
+/// point to lie in the bounds and no ray to hit a surface closer than `min_clearance`. One
+/// pass of rays answers both.
+#[derive(Clone, Debug)]
 pub struct BackfaceVote<'a> {
     scene: &'a Scene,
+    directions: Vec<Vec3>,
     /// The box probes must stay in (the scene's bounds by default).
     pub bounds: Aabb,
     /// The share of rays that must hit back faces for the point to count as inside
-    /// geometry; default 0.25 (DDGI's probe classification uses the same share).
+    /// geometry; default [`INSIDE_BACKFACE_SHARE`], with which
+    /// [`FreeSpace::inside_geometry`] agrees with [`inside_geometry`](crate::inside_geometry).
     pub backface_fraction: f32,
     /// The smallest distance to a surface, along any of the rays, at which a probe may stand;
     /// default 0.25 % of the scene's bounding-box diagonal.
@@ -50,14 +54,15 @@ pub struct BackfaceVote<'a> {
 }
 
 impl<'a> BackfaceVote<'a> {
-    /// The vote over `scene` with the defaults: the scene's bounds, a back-face share of 0.25
-    /// and a clearance of 0.25 % of the bounds' diagonal.
+    /// The vote over `scene` with the defaults: the scene's bounds, a back-face share of
+    /// [`INSIDE_BACKFACE_SHARE`] and a clearance of 0.25 % of the bounds' diagonal.
     pub fn new(scene: &'a Scene) -> BackfaceVote<'a> {
         let bounds = scene.bounds();
         BackfaceVote {
             scene,
+            directions: fibonacci_directions(INSIDE_TEST_RAYS),
             bounds,
-            backface_fraction: 0.25,
+            backface_fraction: INSIDE_BACKFACE_SHARE,
             min_clearance: 0.0025 * bounds.size().length(),
         }
     }
@@ -72,8 +77,8 @@ impl<'a> BackfaceVote<'a> {
         let mut backfaces = 0;
         let mut nearest = f32::INFINITY;
         let materials = self.scene.materials();
-        for direction in vote_directions() {
-            let ray = Ray::new(point, direction);
+        for direction in &self.directions {
+            let ray = Ray::new(point, *direction);
             if let Some(hit) = self.scene.closest_hit(&ray, f32::INFINITY) {
                 nearest = nearest.min(hit.t);
                 if !hit.front_face && !materials[hit.material as usize].double_sided {
@@ -85,7 +90,7 @@ impl<'a> BackfaceVote<'a> {
     }
 
     fn inside_from_vote(&self, backfaces: usize) -> bool {
-        backfaces as f32 > self.backface_fraction * BACKFACE_VOTE_RAYS as f32
+        backfaces as f32 > self.backface_fraction * self.directions.len() as f32
     }
 }
 
@@ -95,7 +100,7 @@ impl FreeSpace for BackfaceVote<'_> {
     }
 
     fn inside_geometry(&self, point: Vec3) -> bool {
-        self.inside_from_vote(self.vote(point).0)
+        !point.is_finite() || self.inside_from_vote(self.vote(point).0)
     }
 
     fn is_free(&self, point: Vec3) -> bool {
@@ -107,18 +112,36 @@ impl FreeSpace for BackfaceVote<'_> {
     }
 }
 
-/// The fixed spherical Fibonacci directions of [`BackfaceVote`]. The pattern is rotated by an
-/// irrational angle so that no ray runs along a coordinate axis (axis-aligned rays graze
-/// axis-aligned walls).
-fn vote_directions() -> impl Iterator<Item = Vec3> {
-    let n = BACKFACE_VOTE_RAYS as f32;
-    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    (0..BACKFACE_VOTE_RAYS).map(move |i| {
-        let z = 1.0 - (2.0 * i as f32 + 1.0) / n;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = golden * i as f32 + 0.1234;
-        Vec3::new(r * phi.cos(), z, r * phi.sin())
-    })
+/// The free space of a [`VoxelGrid`] (the SDF generator's voxelization: what a flood fill
+/// reaches from outside the bounds, plus sealed rooms), limited to a box (usually the scene's
+/// bounds): a point is free when its voxel is [`VoxelState::Free`], and inside geometry when
+/// its voxel is [`VoxelState::Inside`]. Voxels that a triangle touches are neither, so probes
+/// keep about a voxel of clearance.
+#[derive(Clone, Copy, Debug)]
+pub struct VoxelFreeSpace<'v> {
+    voxels: &'v VoxelGrid,
+    bounds: Aabb,
+}
+
+impl<'v> VoxelFreeSpace<'v> {
+    /// The free space of `voxels` within `bounds`.
+    pub fn new(voxels: &'v VoxelGrid, bounds: Aabb) -> VoxelFreeSpace<'v> {
+        VoxelFreeSpace { voxels, bounds }
+    }
+}
+
+impl FreeSpace for VoxelFreeSpace<'_> {
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    fn inside_geometry(&self, point: Vec3) -> bool {
+        self.voxels.state_at(point) == VoxelState::Inside
+    }
+
+    fn is_free(&self, point: Vec3) -> bool {
+        point.is_finite() && self.bounds.contains(point) && self.voxels.is_free(point)
+    }
 }
 
 /// The centres of a regular grid of cells of edge `spacing` over `free.bounds()` that are

@@ -5,7 +5,7 @@
 mod free_space;
 mod state;
 
-pub use free_space::{BACKFACE_VOTE_RAYS, BackfaceVote, FreeSpace, free_space_grid};
+pub use free_space::{BackfaceVote, FreeSpace, VoxelFreeSpace, free_space_grid};
 pub use state::{AtlasState, Evaluation};
 
 use glam::{Vec2, Vec3};
@@ -302,7 +302,7 @@ impl<'a> Atlas<'a> {
                 let material = &materials[triangle.material as usize];
                 let side_count = sides(triangle.material);
                 let mut out = Vec::new();
-                if normal == Vec3::ZERO || !(area > 0.0) {
+                if normal == Vec3::ZERO || area.is_nan() || area <= 0.0 {
                     return out;
                 }
                 for side in 0..side_count {
@@ -441,7 +441,10 @@ impl<'a> Atlas<'a> {
         let offset = probe - sample.position;
         let distance_squared = offset.length_squared();
         let max_distance = self.params.max_distance.unwrap_or(f32::INFINITY);
-        if !(distance_squared > 1e-12) || distance_squared > max_distance * max_distance {
+        if distance_squared.is_nan()
+            || distance_squared <= 1e-12
+            || distance_squared > max_distance * max_distance
+        {
             return None;
         }
         let distance = distance_squared.sqrt();
@@ -514,7 +517,7 @@ fn check_params(params: &AtlasParams) -> Result<(), AtlasError> {
         ));
     }
     if let Some(d) = params.max_distance
-        && !(d > 0.0 && !d.is_nan())
+        && (d <= 0.0 || d.is_nan())
     {
         return Err(invalid("max_distance", d, "a distance > 0 or None"));
     }
