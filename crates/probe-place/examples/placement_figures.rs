@@ -6,16 +6,21 @@
 //! ```text
 //! cargo run --release -p probe-place --example placement_figures -- SCENE \
 //!     [--texels 20000] [--reference-spacing 2.0] [--gibbs-probes 8x2x4] \
-//!     [--gibbs-iterations 100] [--gibbs-step 0.5] [--grid-cap 4000] [--json out.json]
+//!     [--gibbs-iterations 100] [--gibbs-step 0.5] [--grid-cap 4000] [--candidates] \
+//!     [--json out.json]
 //! ```
+//!
+//! With `--candidates`, the SDF-skeleton and medial-axis candidates (default parameters) are
+//! measured on the atlas too, refined by Gibbs sampling, and added to the minimal cover's pool.
 //!
 //! `SCENE` is a path or `builtin:NAME`; `sponza`, `godot-room` and `cornell-box` name the
 //! shared scenes. Distances are in metres; the defaults for the reference spacing and the
 //! Gibbs step are 1/25 and 1/100 of the bounds' longest side.
 
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, free_space_grid, gibbs,
-    minimal_cover,
+    Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, MedialParams, SdfParams,
+    VoxelFreeSpace, VoxelGrid, free_space_grid, gibbs, medial_candidates, minimal_cover,
+    sdf_candidates,
 };
 use probe_scene::Scene;
 use probe_scene::builtin::grid_cell_centers;
@@ -64,7 +69,16 @@ fn main() {
         scene.bounds().max
     );
 
-    let free = BackfaceVote::new(&scene);
+    // Free space: the ray vote and the SDF generator's voxels (1/160 of the longest side) must
+    // both agree.
+    let t = Instant::now();
+    let voxels = VoxelGrid::build(&scene, size.max_element() / 160.0).expect("voxels");
+    let free = (
+        BackfaceVote::new(&scene),
+        VoxelFreeSpace::new(&voxels, scene.bounds()),
+    );
+    let voxels_s = t.elapsed().as_secs_f64();
+    println!("voxels for the free-space test: {voxels_s:.2} s");
     let t = Instant::now();
     let pool = free_space_grid(&free, spacing);
     let pool_s = t.elapsed().as_secs_f64();
@@ -129,6 +143,65 @@ fn main() {
         set.pruned,
         set.coverage
     );
+
+    // The candidate generators, measured on the same atlas and refined by Gibbs.
+    let mut candidates_json = serde_json::Value::Null;
+    if args.iter().any(|a| a == "--candidates") {
+        let t = Instant::now();
+        let sdf = sdf_candidates(&scene, &SdfParams::for_scene(&scene)).expect("sdf");
+        let sdf_s = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let medial = medial_candidates(&scene, &MedialParams::for_scene(&scene)).expect("medial");
+        let medial_s = t.elapsed().as_secs_f64();
+        let sdf_p = sdf.probes.positions.clone();
+        let medial_p = medial.probes.positions.clone();
+        let t = Instant::now();
+        let refined = gibbs(
+            &atlas,
+            &free,
+            &sdf_p,
+            &GibbsParams {
+                max_iterations: gibbs_iterations,
+                ..GibbsParams::with_step(gibbs_step)
+            },
+        )
+        .expect("gibbs");
+        let refine_s = t.elapsed().as_secs_f64();
+        let mut union = sdf_p.clone();
+        union.extend(&medial_p);
+        union.extend(&pool);
+        let t = Instant::now();
+        let mixed =
+            minimal_cover(&atlas, &free, &union, &CoverParams::full_coverage()).expect("cover");
+        let mixed_s = t.elapsed().as_secs_f64();
+        let from_candidates = mixed
+            .chosen
+            .iter()
+            .filter(|&&i| i < sdf_p.len() + medial_p.len())
+            .count();
+        println!(
+            "candidates: SDF {} probes ({sdf_s:.2} s) coverage {:.4}; medial {} probes ({medial_s:.2} s) coverage {:.4}",
+            sdf_p.len(),
+            atlas.coverage(&sdf_p),
+            medial_p.len(),
+            atlas.coverage(&medial_p)
+        );
+        println!(
+            "gibbs from the SDF candidates: {} iterations in {refine_s:.2} s, coverage {:.4} -> best {:.4}",
+            refined.iterations, refined.history[0].coverage, refined.coverage
+        );
+        println!(
+            "minimal cover over SDF + medial + reference grid: {} probes ({from_candidates} of them SDF/medial candidates), {mixed_s:.2} s",
+            mixed.positions.len()
+        );
+        candidates_json = serde_json::json!({
+            "sdf": {"probes": sdf_p.len(), "seconds": sdf_s, "coverage": atlas.coverage(&sdf_p)},
+            "medial": {"probes": medial_p.len(), "seconds": medial_s, "coverage": atlas.coverage(&medial_p)},
+            "gibbs_from_sdf": {"iterations": refined.iterations, "seconds": refine_s,
+                "coverage_start": refined.history[0].coverage, "coverage_best": refined.coverage},
+            "minimal_cover_mixed_pool": {"probes": mixed.positions.len(), "from_candidates": from_candidates},
+        });
+    }
 
     // Fewer probes for slightly less than full coverage.
     let mut partial = Vec::new();
@@ -202,6 +275,7 @@ fn main() {
                 "coverage_by_count": set.coverage_by_count, "positions": set.positions,
             },
             "minimal_cover_partial": partial,
+            "candidates": candidates_json,
             "grids": grids,
             "smallest_full_coverage_grid": smallest.map(|(d, c)| serde_json::json!({"dims": d, "probes": c})),
         });

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use probe_place::{
     Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, PlacementReport,
-    free_space_grid, gibbs, minimal_cover,
+    VoxelFreeSpace, VoxelGrid, VoxelState, free_space_grid, gibbs, minimal_cover,
 };
 use probe_scene::Scene;
 use probe_testdata::{CORNELL_BOX, GODOT_ROOM, scene_path};
@@ -16,9 +16,38 @@ fn load(relative: &str) -> Scene {
 }
 
 #[test]
+fn cornell_box_gltf_blocks_are_not_free_space() {
+    // The glTF Cornell box is built of double-sided quads: the blocks are closed (by the floor)
+    // but have no back faces, so the ray vote alone calls their inside free. The voxels see
+    // the sealed pocket; the pair of tests rejects it.
+    let scene = load(CORNELL_BOX);
+    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 160.0).unwrap();
+    let vote = BackfaceVote::new(&scene);
+    let both = (vote.clone(), VoxelFreeSpace::new(&voxels, scene.bounds()));
+    let inside: Vec<Vec3> = (0..voxels.states().len())
+        .filter(|&i| voxels.states()[i] == VoxelState::Inside)
+        .map(|i| voxels.center(voxels.cell(i)))
+        .filter(|p| scene.bounds().contains(*p))
+        .collect();
+    assert!(inside.len() > 1000, "{}", inside.len());
+    let vote_free = inside.iter().filter(|p| vote.is_free(**p)).count();
+    assert!(
+        vote_free > inside.len() / 2,
+        "{vote_free} of {}",
+        inside.len()
+    );
+    assert!(inside.iter().all(|p| !both.is_free(*p)));
+    assert!(inside.iter().all(|p| both.inside_geometry(*p)));
+}
+
+#[test]
 fn cornell_box_gltf_full_coverage_from_a_minimal_set() {
     let scene = load(CORNELL_BOX);
-    let free = BackfaceVote::new(&scene);
+    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 160.0).unwrap();
+    let free = (
+        BackfaceVote::new(&scene),
+        VoxelFreeSpace::new(&voxels, scene.bounds()),
+    );
     let pool = free_space_grid(&free, scene.bounds().size().max_element() / 14.0);
     let params = AtlasParams::for_texel_count(&scene, 3000);
     let atlas = Atlas::build(&scene, &params, &pool).unwrap();

@@ -144,6 +144,27 @@ impl FreeSpace for VoxelFreeSpace<'_> {
     }
 }
 
+/// Both tests at once: a point is free when both call it free (the first is asked first, so
+/// put the cheaper one first) and inside geometry when either says so; the bounds are the
+/// intersection. Pair [`BackfaceVote`] with [`VoxelFreeSpace`] for scenes with closed
+/// double-sided solids (the vote has no back faces to count there; the voxels see the
+/// enclosed pocket) or with solids made of touching boxes (coplanar faces can fool the voxels'
+/// vote of a sealed pocket; the per-point ray vote is not fooled).
+impl<A: FreeSpace, B: FreeSpace> FreeSpace for (A, B) {
+    fn bounds(&self) -> Aabb {
+        let (a, b) = (self.0.bounds(), self.1.bounds());
+        Aabb::new(a.min.max(b.min), a.max.min(b.max))
+    }
+
+    fn inside_geometry(&self, point: Vec3) -> bool {
+        self.0.inside_geometry(point) || self.1.inside_geometry(point)
+    }
+
+    fn is_free(&self, point: Vec3) -> bool {
+        self.0.is_free(point) && self.1.is_free(point)
+    }
+}
+
 /// The centres of a regular grid of cells of edge `spacing` over `free.bounds()` that are
 /// free ([`FreeSpace::is_free`]), x fastest then y then z. Per axis the grid has
 /// `max(1, round(extent / spacing))` cells and is centred in the bounds. Used as the default
