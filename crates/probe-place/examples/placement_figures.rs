@@ -7,8 +7,11 @@
 //! cargo run --release -p probe-place --example placement_figures -- SCENE \
 //!     [--texels 20000] [--reference-spacing 2.0] [--gibbs-probes 8x2x4] \
 //!     [--gibbs-iterations 100] [--gibbs-step 0.5] [--grid-cap 4000] [--candidates] \
-//!     [--json out.json]
+//!     [--max-escaping 0.4] [--json out.json]
 //! ```
+//!
+//! `--max-escaping S` sets [`BackfaceVote::max_escaping_fraction`]: points from which more than
+//! the share `S` of rays escape the scene are outdoors, not free.
 //!
 //! With `--candidates`, the SDF-skeleton and medial-axis candidates (default parameters) are
 //! measured on the atlas too, refined by Gibbs sampling, and added to the minimal cover's pool.
@@ -73,10 +76,9 @@ fn main() {
     // both agree.
     let t = Instant::now();
     let voxels = VoxelGrid::build(&scene, size.max_element() / 160.0).expect("voxels");
-    let free = (
-        BackfaceVote::new(&scene),
-        VoxelFreeSpace::new(&voxels, scene.bounds()),
-    );
+    let mut vote = BackfaceVote::new(&scene);
+    vote.max_escaping_fraction = arg(&args, "--max-escaping");
+    let free = (vote, VoxelFreeSpace::new(&voxels, scene.bounds()));
     let voxels_s = t.elapsed().as_secs_f64();
     println!("voxels for the free-space test: {voxels_s:.2} s");
     let t = Instant::now();

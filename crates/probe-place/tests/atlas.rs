@@ -80,6 +80,18 @@ fn double_sided_triangles_get_texels_on_both_faces() {
     for offset in [0.01f32, 0.2, -0.01, -0.2] {
         assert!(!free.inside_geometry(centre + normal * offset));
     }
+    // Every point beside a lone plane sees open sky in half of all directions: "outdoors"
+    // once an escaping share is set, free otherwise.
+    let near = centre + normal * 0.2;
+    assert!(free.is_free(near) || !free.bounds.contains(near));
+    let wide = free.clone().with_bounds(probe_scene::Aabb::new(
+        scene.bounds().min - Vec3::ONE,
+        scene.bounds().max + Vec3::ONE,
+    ));
+    assert!(wide.is_free(near));
+    let mut indoors_only = wide.clone();
+    indoors_only.max_escaping_fraction = Some(0.4);
+    assert!(!indoors_only.is_free(near));
     // Probes on either side see the texels of their side.
     let side_a = centre + normal * 0.5;
     let side_b = centre - normal * 0.5;
@@ -400,6 +412,10 @@ fn free_space_vote_and_grid() {
         probe_scene::builtin::LEAK_DARK_ROOM,
     ];
     assert!(grid.iter().all(|p| rooms.iter().any(|r| r.contains(*p))));
+    // Inside a closed room nothing escapes: the "outdoors" test changes nothing.
+    let mut indoors_only = free.clone();
+    indoors_only.max_escaping_fraction = Some(0.1);
+    assert_eq!(free_space_grid(&indoors_only, 0.5), grid);
     assert_eq!(free_space_grid(&free, 0.0), Vec::<Vec3>::new());
     assert_eq!(free_space_grid(&free, f32::NAN), Vec::<Vec3>::new());
 }

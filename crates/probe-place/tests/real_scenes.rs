@@ -21,7 +21,7 @@ fn cornell_box_gltf_blocks_are_not_free_space() {
     // but have no back faces, so the ray vote alone calls their inside free. The voxels see
     // the sealed pocket; the pair of tests rejects it.
     let scene = load(CORNELL_BOX);
-    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 160.0).unwrap();
+    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 100.0).unwrap();
     let vote = BackfaceVote::new(&scene);
     let both = (vote.clone(), VoxelFreeSpace::new(&voxels, scene.bounds()));
     let inside: Vec<Vec3> = (0..voxels.states().len())
@@ -43,7 +43,7 @@ fn cornell_box_gltf_blocks_are_not_free_space() {
 #[test]
 fn cornell_box_gltf_full_coverage_from_a_minimal_set() {
     let scene = load(CORNELL_BOX);
-    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 160.0).unwrap();
+    let voxels = VoxelGrid::build(&scene, scene.bounds().size().max_element() / 100.0).unwrap();
     let free = (
         BackfaceVote::new(&scene),
         VoxelFreeSpace::new(&voxels, scene.bounds()),

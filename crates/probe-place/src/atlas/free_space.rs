@@ -36,8 +36,8 @@ pub trait FreeSpace: Sync {
 /// Double-sided materials have no back face, so a point next to or between double-sided
 /// surfaces (an open, zero-thickness mesh such as a two-sided plane) is never inside. Rays
 /// that escape the scene vote "outside". [`FreeSpace::is_free`] additionally requires the
-/// point to lie in the bounds and no ray to hit a surface closer than `min_clearance`. One
-/// pass of rays answers both.
+/// point to lie in the bounds, no ray to hit a surface closer than `min_clearance` and, if
+/// `max_escaping_fraction` is set, not too many rays to escape. One pass of rays answers all.
 #[derive(Clone, Debug)]
 pub struct BackfaceVote<'a> {
     scene: &'a Scene,
@@ -51,6 +51,13 @@ pub struct BackfaceVote<'a> {
     /// The smallest distance to a surface, along any of the rays, at which a probe may stand;
     /// default 0.25 % of the scene's bounding-box diagonal.
     pub min_clearance: f32,
+    /// With `Some(share)`, a point from which more than `share` of the rays leave the scene
+    /// without a hit is "outdoors" and not free. `None` (the default) keeps seed 000's "bounding
+    /// box minus the geometry". For an interior open to the sky, such as Sponza's atrium,
+    /// `Some(0.4)` keeps the building's inside and drops the space above its roofs and beside
+    /// its outer walls (where half of all directions are open sky), so that placements and
+    /// coverage are about the inside.
+    pub max_escaping_fraction: Option<f32>,
 }
 
 impl<'a> BackfaceVote<'a> {
@@ -64,6 +71,7 @@ impl<'a> BackfaceVote<'a> {
             bounds,
             backface_fraction: INSIDE_BACKFACE_SHARE,
             min_clearance: 0.0025 * bounds.size().length(),
+            max_escaping_fraction: None,
         }
     }
 
@@ -72,21 +80,25 @@ impl<'a> BackfaceVote<'a> {
         BackfaceVote { bounds, ..self }
     }
 
-    /// Casts the rays: (back-face hits, nearest hit distance).
-    fn vote(&self, point: Vec3) -> (usize, f32) {
+    /// Casts the rays: (back-face hits, rays without a hit, nearest hit distance).
+    fn vote(&self, point: Vec3) -> (usize, usize, f32) {
         let mut backfaces = 0;
+        let mut escaping = 0;
         let mut nearest = f32::INFINITY;
         let materials = self.scene.materials();
         for direction in &self.directions {
             let ray = Ray::new(point, *direction);
-            if let Some(hit) = self.scene.closest_hit(&ray, f32::INFINITY) {
-                nearest = nearest.min(hit.t);
-                if !hit.front_face && !materials[hit.material as usize].double_sided {
-                    backfaces += 1;
+            match self.scene.closest_hit(&ray, f32::INFINITY) {
+                Some(hit) => {
+                    nearest = nearest.min(hit.t);
+                    if !hit.front_face && !materials[hit.material as usize].double_sided {
+                        backfaces += 1;
+                    }
                 }
+                None => escaping += 1,
             }
         }
-        (backfaces, nearest)
+        (backfaces, escaping, nearest)
     }
 
     fn inside_from_vote(&self, backfaces: usize) -> bool {
@@ -107,8 +119,11 @@ impl FreeSpace for BackfaceVote<'_> {
         if !point.is_finite() || !self.bounds.contains(point) {
             return false;
         }
-        let (backfaces, nearest) = self.vote(point);
-        !self.inside_from_vote(backfaces) && nearest >= self.min_clearance
+        let (backfaces, escaping, nearest) = self.vote(point);
+        let outdoors = self
+            .max_escaping_fraction
+            .is_some_and(|share| escaping as f32 > share * self.directions.len() as f32);
+        !self.inside_from_vote(backfaces) && nearest >= self.min_clearance && !outdoors
     }
 }
 
