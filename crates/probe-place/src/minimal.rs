@@ -1,0 +1,360 @@
+//! Minimal probe sets ("model no more than a scene needs"): drop the probes whose removal
+//! keeps coverage, and pick as few probes as reach a target coverage or fit a budget.
+
+use crate::atlas::{Atlas, FreeSpace, ProbeView};
+use crate::optimize::{GibbsParams, OptimizeError, Optimized, gibbs};
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// Why a minimal set could not be computed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum MinimalSetError {
+    /// The probe budget is zero.
+    ///
+    /// Fix: pass a budget of at least 1, or `None` for no budget.
+    #[error("the probe budget is 0: a set of no probes covers nothing")]
+    ZeroBudget,
+    /// The target coverage is outside `(0, 1]` or not a number.
+    ///
+    /// Fix: pass a share in `(0, 1]`, e.g. `1.0` for full coverage or `0.99`.
+    #[error("target coverage {value} is outside (0, 1]")]
+    CoverageOutOfRange {
+        /// The value given.
+        value: f32,
+    },
+    /// No probe or candidate was given, or none of them is in free space.
+    ///
+    /// Fix: pass candidates in free space, e.g. [`free_space_grid`](crate::free_space_grid).
+    #[error("no usable candidates: {given} given, none of them in free space")]
+    NoCandidates {
+        /// How many were given.
+        given: usize,
+    },
+    /// A probe or candidate position is not finite.
+    ///
+    /// Fix: remove or repair the point named by `index`.
+    #[error("candidate {index} has a non-finite position {position}")]
+    NonFiniteCandidate {
+        /// Index into the list given.
+        index: usize,
+        /// The position given.
+        position: Vec3,
+    },
+    /// The Gibbs refinement's parameters are invalid.
+    ///
+    /// Fix: see [`OptimizeError`].
+    #[error("refinement: {0}")]
+    Refinement(#[from] OptimizeError),
+}
+
+/// What [`minimal_cover`] aims for.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CoverParams {
+    /// The share of texels to cover, in `(0, 1]` (1: full coverage).
+    pub target_coverage: f32,
+    /// The most probes to use (`None`: as many as the target needs).
+    pub budget: Option<usize>,
+    /// Gibbs refinement of the chosen set when the greedy choice falls short of the target
+    /// (`None`: no refinement). Refinement moves probes and never lowers coverage.
+    pub refine: Option<GibbsParams>,
+}
+
+impl CoverParams {
+    /// Full coverage, no budget, no refinement.
+    pub fn full_coverage() -> CoverParams {
+        CoverParams {
+            target_coverage: 1.0,
+            budget: None,
+            refine: None,
+        }
+    }
+}
+
+/// A set chosen by [`minimal_cover`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MinimalSet {
+    /// The probe positions (after pruning and refinement).
+    pub positions: Vec<[f32; 3]>,
+    /// The candidates chosen, as indices into the list given, in the order chosen (those
+    /// pruned afterwards left out). Refinement moves probes away from these candidates.
+    pub chosen: Vec<usize>,
+    /// Coverage after each greedy pick: `coverage_by_count[i]` is the coverage of the first
+    /// `i + 1` picks, the curve of coverage against probe count.
+    pub coverage_by_count: Vec<f64>,
+    /// How many greedy picks the pruning pass dropped.
+    pub pruned: usize,
+    /// The coverage of `positions`.
+    pub coverage: f64,
+    /// Whether `coverage` reaches the target.
+    pub reached_target: bool,
+    /// The refinement's result, when it ran.
+    pub refinement: Option<Optimized>,
+}
+
+impl MinimalSet {
+    /// The positions as `Vec3`s.
+    pub fn positions(&self) -> Vec<Vec3> {
+        self.positions
+            .iter()
+            .map(|p| Vec3::from_array(*p))
+            .collect()
+    }
+}
+
+/// A probe set after [`prune_redundant`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pruned {
+    /// Indices of the probes kept, in input order.
+    pub kept: Vec<usize>,
+    /// Coverage before pruning.
+    pub coverage_before: f64,
+    /// Coverage after pruning.
+    pub coverage_after: f64,
+}
+
+fn check_points(points: &[Vec3]) -> Result<(), MinimalSetError> {
+    if let Some(index) = points.iter().position(|p| !p.is_finite()) {
+        return Err(MinimalSetError::NonFiniteCandidate {
+            index,
+            position: points[index],
+        });
+    }
+    Ok(())
+}
+
+fn check_target(target: f32) -> Result<(), MinimalSetError> {
+    if !(target > 0.0 && target <= 1.0) {
+        return Err(MinimalSetError::CoverageOutOfRange { value: target });
+    }
+    Ok(())
+}
+
+/// The number of texels a coverage of `target` needs.
+fn needed_texels(target: f32, texels: usize) -> usize {
+    ((target as f64 * texels as f64) - 1e-9).ceil().max(0.0) as usize
+}
+
+/// Drops every probe whose removal keeps the coverage at least `min(min_coverage,
+/// coverage of all probes)`; with `min_coverage = 1` that is "every probe whose removal
+/// keeps every covered texel covered".
+///
+/// Greedy, in a documented order: probes are visited from the one that sees the fewest
+/// texels to the one that sees the most (ties: lower index first), and each is dropped if the
+/// coverage without it stays at least the floor. With a floor equal to the starting coverage
+/// the result is irredundant: every probe kept sees a texel no other kept probe sees. The
+/// result is never larger than the input.
+pub fn prune_redundant(
+    atlas: &Atlas<'_>,
+    probes: &[Vec3],
+    min_coverage: f32,
+) -> Result<Pruned, MinimalSetError> {
+    check_target(min_coverage)?;
+    check_points(probes)?;
+    if probes.is_empty() {
+        return Err(MinimalSetError::NoCandidates { given: 0 });
+    }
+    let views: Vec<Vec<u32>> = probes
+        .par_iter()
+        .map(|p| texel_ids(atlas.probe_views(*p)))
+        .collect();
+    let all: Vec<usize> = (0..probes.len()).collect();
+    let (kept, before, after) = prune_views(&views, &all, min_coverage, atlas.samples().len());
+    Ok(Pruned {
+        kept,
+        coverage_before: before,
+        coverage_after: after,
+    })
+}
+
+fn texel_ids(views: Vec<ProbeView>) -> Vec<u32> {
+    views.into_iter().map(|v| v.sample).collect()
+}
+
+/// Prunes `members` (indices into `views`, the texels each sees); returns (kept, coverage
+/// before, after).
+fn prune_views(
+    views: &[Vec<u32>],
+    members: &[usize],
+    min_coverage: f32,
+    texels: usize,
+) -> (Vec<usize>, f64, f64) {
+    let mut count = vec![0u32; texels];
+    for &m in members {
+        for v in &views[m] {
+            count[*v as usize] += 1;
+        }
+    }
+    let mut covered = count.iter().filter(|c| **c > 0).count();
+    let before = covered as f64 / texels as f64;
+    let floor = needed_texels(min_coverage, texels).min(covered);
+    let mut order = members.to_vec();
+    order.sort_by_key(|&m| (views[m].len(), m));
+    let mut dropped = vec![false; views.len()];
+    for m in order {
+        let lost = views[m].iter().filter(|v| count[**v as usize] == 1).count();
+        if covered - lost >= floor {
+            for v in &views[m] {
+                count[*v as usize] -= 1;
+            }
+            covered -= lost;
+            dropped[m] = true;
+        }
+    }
+    let kept = members.iter().copied().filter(|m| !dropped[*m]).collect();
+    (kept, before, covered as f64 / texels as f64)
+}
+
+/// As few probes as reach `params.target_coverage` (or as much coverage as
+/// `params.budget` probes give), chosen from `candidates`:
+/// 1. candidates outside free space are skipped;
+/// 2. **greedy set cover**: repeatedly take the candidate that sees the most texels not yet
+///    seen (ties: lower index), until the target is reached, the budget is spent or no
+///    candidate adds anything. Greedy cover is within a factor `ln(texels) + 1` of the
+///    fewest probes possible from the same candidates; it is evaluated lazily (a candidate's
+///    gain only shrinks as others are chosen);
+/// 3. [`prune_redundant`]'s pass over the chosen probes, keeping the coverage reached (capped
+///    at the target);
+/// 4. if `params.refine` is set and the target is not reached, Gibbs sampling ([`gibbs`])
+///    moves the chosen probes to raise coverage (it keeps the best set met, so coverage does
+///    not drop).
+///
+/// With the atlas's own reference points as candidates (e.g. the same
+/// [`free_space_grid`](crate::free_space_grid)), full coverage is always reachable, since
+/// every texel kept in the atlas is seen by one of them.
+pub fn minimal_cover(
+    atlas: &Atlas<'_>,
+    free: &dyn FreeSpace,
+    candidates: &[Vec3],
+    params: &CoverParams,
+) -> Result<MinimalSet, MinimalSetError> {
+    check_target(params.target_coverage)?;
+    if params.budget == Some(0) {
+        return Err(MinimalSetError::ZeroBudget);
+    }
+    check_points(candidates)?;
+    let usable: Vec<usize> = {
+        let flags: Vec<bool> = candidates
+            .par_iter()
+            .with_min_len(8)
+            .map(|c| free.is_free(*c))
+            .collect();
+        (0..candidates.len()).filter(|i| flags[*i]).collect()
+    };
+    if usable.is_empty() {
+        return Err(MinimalSetError::NoCandidates {
+            given: candidates.len(),
+        });
+    }
+    let texels = atlas.samples().len();
+    // Only the texel indices are kept: dense pools hold tens of millions of views.
+    let views: Vec<Vec<u32>> = usable
+        .par_iter()
+        .map(|&i| texel_ids(atlas.probe_views(candidates[i])))
+        .collect();
+    let needed = needed_texels(params.target_coverage, texels);
+    let budget = params.budget.unwrap_or(usize::MAX);
+
+    // Lazy greedy: the heap holds (gain bound, lowest index first).
+    let mut seen = vec![false; texels];
+    let mut covered = 0usize;
+    let mut heap: BinaryHeap<(usize, Reverse<usize>)> = views
+        .iter()
+        .enumerate()
+        .map(|(u, v)| (v.len(), Reverse(u)))
+        .collect();
+    let mut picks: Vec<usize> = Vec::new();
+    let mut coverage_by_count = Vec::new();
+    while covered < needed && picks.len() < budget {
+        let Some((_, Reverse(u))) = heap.pop() else {
+            break;
+        };
+        let gain = views[u].iter().filter(|v| !seen[**v as usize]).count();
+        if gain == 0 {
+            continue;
+        }
+        if let Some(&(next_bound, Reverse(next))) = heap.peek()
+            && (next_bound, Reverse(next)) > (gain, Reverse(u))
+        {
+            heap.push((gain, Reverse(u)));
+            continue;
+        }
+        for v in &views[u] {
+            let s = &mut seen[*v as usize];
+            if !*s {
+                *s = true;
+                covered += 1;
+            }
+        }
+        picks.push(u);
+        coverage_by_count.push(covered as f64 / texels as f64);
+    }
+    let target_floor = params.target_coverage;
+    let (kept, _, _) = prune_views(&views, &picks, target_floor, texels);
+    let pruned = picks.len() - kept.len();
+    let chosen_usable: Vec<usize> = picks.iter().copied().filter(|p| kept.contains(p)).collect();
+    let chosen: Vec<usize> = chosen_usable.iter().map(|&u| usable[u]).collect();
+    let mut positions: Vec<Vec3> = chosen.iter().map(|&i| candidates[i]).collect();
+    let mut coverage = {
+        let mut seen = vec![false; texels];
+        for &u in &chosen_usable {
+            for v in &views[u] {
+                seen[*v as usize] = true;
+            }
+        }
+        seen.iter().filter(|s| **s).count() as f64 / texels as f64
+    };
+    let mut refinement = None;
+    let reached = |c: f64| c * texels as f64 >= needed as f64 - 1e-9;
+    if let Some(refine) = &params.refine
+        && !reached(coverage)
+        && !positions.is_empty()
+    {
+        let result = gibbs(atlas, free, &positions, refine)?;
+        if result.coverage > coverage {
+            positions = result.positions();
+            coverage = result.coverage;
+        }
+        refinement = Some(result);
+    }
+    Ok(MinimalSet {
+        positions: positions.iter().map(|p| p.to_array()).collect(),
+        chosen,
+        coverage_by_count,
+        pruned,
+        coverage,
+        reached_target: reached(coverage),
+        refinement,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn view(sample: u32) -> u32 {
+        sample
+    }
+
+    #[test]
+    fn pruning_keeps_coverage_and_drops_the_redundant() {
+        // Probe 0 sees {0, 1}, probe 1 sees {1, 2}, probe 2 sees {0, 1, 2, 3}, probe 3 sees {3}.
+        let views = vec![
+            vec![view(0), view(1)],
+            vec![view(1), view(2)],
+            vec![view(0), view(1), view(2), view(3)],
+            vec![view(3)],
+        ];
+        let (kept, before, after) = prune_views(&views, &[0, 1, 2, 3], 1.0, 4);
+        assert_eq!((before, after), (1.0, 1.0));
+        // Visit order by view count: 3 (1 texel), 0, 1 (2 each), 2: 3, 0 and 1 are redundant
+        // while 2 remains; 2 is then the only one left.
+        assert_eq!(kept, vec![2]);
+        // With a 50 % floor everything but one probe can go.
+        let (kept, _, after) = prune_views(&views, &[0, 1, 3], 0.5, 4);
+        assert!(after >= 0.5 && kept.len() == 1, "{kept:?} {after}");
+    }
+}
