@@ -30,6 +30,15 @@ pub enum CliError {
     /// An image could not be written or read.
     #[error("image: {0}")]
     Image(#[from] probe_capture::ImageError),
+    /// Placement failed.
+    #[error("placement: {0}")]
+    Place(#[from] probe_cli::placement::PlaceError),
+    /// A top view could not be drawn.
+    #[error("top view: {0}")]
+    TopView(#[from] probe_cli::top_view::TopViewError),
+    /// An evaluation step failed.
+    #[error(transparent)]
+    Eval(#[from] probe_cli::eval::EvalError),
     /// A command-line value could not be understood.
     #[error("invalid {parameter} {value:?}: {reason}")]
     InvalidArgument {

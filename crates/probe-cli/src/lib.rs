@@ -41,4 +41,6 @@
 //! ```
 
 pub mod chart;
+pub mod eval;
+pub mod placement;
 pub mod top_view;

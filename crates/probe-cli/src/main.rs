@@ -34,6 +34,8 @@ enum Command {
     Bake(commands::bake::Args),
     /// Render the path-traced reference (direct, one-bounce glossy, or full GI).
     Reference(commands::reference::Args),
+    /// Place probes automatically (grid, relocated grid, SDF, medial axis, seed 002, minimal).
+    Place(commands::place::Args),
 }
 
 fn main() -> ExitCode {
@@ -43,6 +45,7 @@ fn main() -> ExitCode {
         Command::Index(args) => commands::index::run(args),
         Command::Bake(args) => commands::bake::run(args),
         Command::Reference(args) => commands::reference::run(args),
+        Command::Place(args) => commands::place::run(args),
     };
     match result {
         Ok(report) => {

@@ -2,5 +2,6 @@
 
 pub mod bake;
 pub mod index;
+pub mod place;
 pub mod reference;
 pub mod scene_info;

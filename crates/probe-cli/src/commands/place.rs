@@ -1,0 +1,208 @@
+//! `probes place`: automatic probe placement with its report.
+
+use crate::cli_error::CliError;
+use crate::output::Report;
+use crate::progress::spinner;
+use crate::spec::open_scene;
+use probe_cli::placement::{Method, Optimizer, PlaceOptions, Placement, place};
+use probe_cli::top_view::{TopViewOptions, write_top_view};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+
+/// Placement methods on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    /// A regular grid over the scene bounds (`--grid NXxNYxNZ`).
+    Grid,
+    /// The regular grid with DDGI classification and relocation.
+    GridRelocated,
+    /// Seed 000's SDF skeleton.
+    Sdf,
+    /// Seed 000's shrinking-ball medial axis.
+    Medial,
+    /// Seed 002's spawn and merge (lighting from probe-capture).
+    SpawnMerge,
+    /// Seed 002's irradiance-gradient ascent (lighting from probe-capture).
+    GradientAscent,
+    /// The fewest probes from a dense candidate pool reaching `--coverage` within `--budget`.
+    Minimal,
+}
+
+/// Optimisers on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptimizeArg {
+    /// Gibbs sampling with importance-sampled directions (seed 000 Alg. 2).
+    Gibbs,
+    /// Gradient descent over the 8-probe support cube (seed 000 eq. 3.3).
+    Descent,
+}
+
+/// Arguments of `probes place`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A glTF 2.0 file or `builtin:NAME`.
+    pub scene: String,
+    /// The placement method.
+    #[arg(long, value_enum, default_value_t = MethodArg::Sdf)]
+    pub method: MethodArg,
+    /// Grid dimensions for `grid` and `grid-relocated`, `NXxNYxNZ`.
+    #[arg(long, default_value = "4x2x4")]
+    pub grid: String,
+    /// Optimise the method's probes.
+    #[arg(long, value_enum)]
+    pub optimize: Option<OptimizeArg>,
+    /// Keep at most this many probes (chosen greedily by coverage).
+    #[arg(long)]
+    pub budget: Option<usize>,
+    /// Target share of surface samples seen at a non-grazing angle, in (0, 1].
+    #[arg(long, default_value_t = 1.0)]
+    pub coverage: f32,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Optimiser iteration cap.
+    #[arg(long, default_value_t = 100)]
+    pub iterations: usize,
+    /// Surface samples (atlas texels) coverage is measured on.
+    #[arg(long, default_value_t = 20_000)]
+    pub texels: usize,
+    /// Where to write the probes (`probes/1` JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also draw the probes over a top view of the scene into this PNG.
+    #[arg(long)]
+    pub top_view: Option<PathBuf>,
+    /// Also write the optimiser's per-iteration history (JSON) here.
+    #[arg(long)]
+    pub history: Option<PathBuf>,
+}
+
+/// Parses `NXxNYxNZ`.
+pub fn parse_dims(parameter: &'static str, text: &str) -> Result<[u32; 3], CliError> {
+    let parts: Vec<Option<u32>> = text.split('x').map(|p| p.parse().ok()).collect();
+    match parts.as_slice() {
+        [Some(x), Some(y), Some(z)] => Ok([*x, *y, *z]),
+        _ => Err(CliError::InvalidArgument {
+            parameter,
+            value: text.to_owned(),
+            reason: "expected NXxNYxNZ, e.g. 4x2x4".into(),
+        }),
+    }
+}
+
+/// Places the probes, writes them (and the pictures asked for) and reports.
+pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
+    let scene = open_scene(&args.scene)?;
+    let method = match args.method {
+        MethodArg::Grid => Method::Grid(parse_dims("--grid", &args.grid)?),
+        MethodArg::GridRelocated => Method::GridRelocated(parse_dims("--grid", &args.grid)?),
+        MethodArg::Sdf => Method::Sdf,
+        MethodArg::Medial => Method::Medial,
+        MethodArg::SpawnMerge => Method::SpawnMerge,
+        MethodArg::GradientAscent => Method::GradientAscent,
+        MethodArg::Minimal => Method::Minimal,
+    };
+    let options = PlaceOptions {
+        optimize: args.optimize.map(|o| match o {
+            OptimizeArg::Gibbs => Optimizer::Gibbs,
+            OptimizeArg::Descent => Optimizer::Descent,
+        }),
+        budget: args.budget,
+        coverage: args.coverage,
+        seed: args.seed,
+        iterations: args.iterations,
+        atlas_texels: args.texels,
+        ..PlaceOptions::new(method)
+    };
+    let progress = spinner("placing");
+    let placed = place(&scene, &options);
+    progress.finish_and_clear();
+    let placed = placed?;
+    placed.probes.save(&args.out)?;
+    if let Some(png) = &args.top_view {
+        let bounds = scene.bounds();
+        let view = TopViewOptions {
+            // Cut just under the top so that ceilings and roofs do not hide the interior.
+            cut_height: Some(bounds.max.y - 0.05 * bounds.size().y),
+            number_probes: placed.probes.len() <= 200,
+            caption: Some(format!(
+                "{}: {} probes, coverage {:.2} %",
+                placed.report.method,
+                placed.probes.len(),
+                100.0 * placed.report.coverage
+            )),
+            ..TopViewOptions::default()
+        };
+        write_top_view(&scene, &placed.probes.positions, &view, png)?;
+    }
+    if let Some(path) = &args.history {
+        let history = placed.history.as_ref().ok_or(CliError::InvalidArgument {
+            parameter: "--history",
+            value: path.display().to_string(),
+            reason: "there is no history without --optimize".into(),
+        })?;
+        let text = serde_json::to_string_pretty(history).unwrap_or_default();
+        probe_cli::eval::write_atomic(path, text.as_bytes())?;
+    }
+    Ok(Box::new(PlaceSummary {
+        placed,
+        out: args.out.clone(),
+        top_view: args.top_view.clone(),
+    }))
+}
+
+struct PlaceSummary {
+    placed: Placement,
+    out: PathBuf,
+    top_view: Option<PathBuf>,
+}
+
+impl Report for PlaceSummary {
+    fn json(&self) -> Value {
+        let mut value = serde_json::to_value(&self.placed.report).unwrap_or(Value::Null);
+        if let Value::Object(map) = &mut value {
+            map.insert("command".into(), json!("place"));
+            map.insert("out".into(), json!(self.out.display().to_string()));
+            map.insert(
+                "top_view".into(),
+                json!(self.top_view.as_ref().map(|p| p.display().to_string())),
+            );
+            map.insert("atlas_seconds".into(), json!(self.placed.atlas_seconds));
+            map.insert(
+                "optimizer_iterations".into(),
+                json!(
+                    self.placed
+                        .history
+                        .as_ref()
+                        .map(|h| h.len().saturating_sub(1))
+                ),
+            );
+        }
+        value
+    }
+
+    fn text(&self) -> String {
+        let r = &self.placed.report;
+        let mut text = format!(
+            "method     {}\nprobes     {}\ncoverage   {:.2} % ({} of {} surface samples seen at view cosine > {}; {} unreachable from free space)\n\
+             best view  mean cosine {:.3}\ninside     {} probes inside geometry, {} outside the bounds\ntime       {:.2} s (+{:.2} s free space and atlas)\nwrote      {}\n",
+            r.method,
+            r.probe_count,
+            100.0 * r.coverage,
+            r.covered_texels,
+            r.texels,
+            r.min_view_cosine,
+            r.unreachable_texels,
+            r.mean_best_view_cosine,
+            r.probes_inside_geometry,
+            r.probes_outside_bounds,
+            r.seconds,
+            self.placed.atlas_seconds,
+            self.out.display(),
+        );
+        if let Some(png) = &self.top_view {
+            text.push_str(&format!("top view   {}\n", png.display()));
+        }
+        text
+    }
+}

@@ -1,0 +1,568 @@
+//! The measured pipeline shared by `probes demo`, `probes eval` and the failure suite: the
+//! evaluation rays of one camera and their path-traced reference, a bake, its indexes, and
+//! traces of those rays through the probes with every tracer and selection, each compared with
+//! the reference ray by ray and image by image (BRIEF, "How quality is measured").
+
+use std::time::Instant;
+
+use glam::Vec3;
+use probe_capture::{
+    BakeSettings, Environment, EvaluationRay, Image, MISS_DISTANCE, ProbeBake, Progress,
+    ReferenceSample, Reflection, Shader, accumulate_rays, bake, reflection_rays, render_gbuffer,
+    trace_reference,
+};
+use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
+use probe_scene::{Camera, Scene};
+use probe_trace_gpu::{
+    CpuTracer, FieldOptions, GpuContext, GpuTracer, LightField, ProbeSelection, RayResult,
+    RayStatus, TraceMethod, TraceOptions, TraceRay, TraceSummary,
+};
+use serde::Serialize;
+
+use super::EvalError;
+
+/// How the evaluation rays of a view are made.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ViewSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Reflection rays per pixel.
+    pub rays_per_pixel: u32,
+    /// Perceptual GGX roughness of every surface; 0 for mirror reflections.
+    pub roughness: f32,
+    /// Shading samples per reference hit (area-light and bounce samples averaged).
+    pub shading_samples: u32,
+    /// Diffuse bounces in the radiance a reflection ray picks up (the bake's, too).
+    pub bounces: u32,
+    /// Seed of every random choice.
+    pub seed: u64,
+}
+
+impl Default for ViewSettings {
+    fn default() -> Self {
+        Self {
+            width: 320,
+            height: 180,
+            rays_per_pixel: 1,
+            roughness: 0.0,
+            shading_samples: 8,
+            bounces: 1,
+            seed: 7,
+        }
+    }
+}
+
+impl ViewSettings {
+    /// The reflection lobe.
+    pub fn reflection(&self) -> Reflection {
+        if self.roughness > 0.0 {
+            Reflection::Ggx {
+                roughness: self.roughness,
+            }
+        } else {
+            Reflection::Mirror
+        }
+    }
+}
+
+/// One camera's evaluation rays and their reference: the ground truth every trace is judged by.
+pub struct EvalView {
+    /// The camera.
+    pub camera: Camera,
+    /// How the rays were made.
+    pub settings: ViewSettings,
+    /// The lighting shared by reference and bake.
+    pub environment: Environment,
+    /// Secondary (reflection) rays from the camera's G-buffer.
+    pub rays: Vec<EvaluationRay>,
+    /// The BVH's answer for each ray, shaded.
+    pub reference: Vec<ReferenceSample>,
+    /// The one-bounce glossy reference image (weighted mean of the reference radiance).
+    pub reference_image: Image,
+    /// Seconds to render the reference.
+    pub seconds: f64,
+}
+
+impl EvalView {
+    /// Renders the camera's G-buffer, makes its reflection rays and traces them against the BVH.
+    ///
+    /// # Errors
+    /// [`EvalError::Render`] for bad settings.
+    pub fn render(
+        scene: &Scene,
+        camera: Camera,
+        settings: ViewSettings,
+        progress: Progress<'_>,
+    ) -> Result<EvalView, EvalError> {
+        let start = Instant::now();
+        let environment = Environment::for_scene(scene);
+        let gbuffer = render_gbuffer(scene, &camera, settings.width, settings.height)?;
+        let rays = reflection_rays(
+            &gbuffer,
+            settings.reflection(),
+            settings.rays_per_pixel,
+            settings.seed,
+        )?;
+        let shader = Shader::new(scene, environment, settings.bounces)?;
+        let reference = trace_reference(
+            &shader,
+            &rays,
+            settings.shading_samples,
+            settings.seed ^ 0x5eed,
+            progress,
+        );
+        let radiance: Vec<Vec3> = reference.iter().map(|r| r.radiance).collect();
+        let reference_image = accumulate_rays(settings.width, settings.height, &rays, &radiance)?;
+        Ok(EvalView {
+            camera,
+            settings,
+            environment,
+            rays,
+            reference,
+            reference_image,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The rays in the tracer's form (each starting at `t = 0` from its offset origin).
+    pub fn trace_rays(&self) -> Vec<TraceRay> {
+        self.rays
+            .iter()
+            .map(|r| TraceRay::new(r.origin, r.direction))
+            .collect()
+    }
+}
+
+/// Bakes probes for an evaluation: the view's environment, so that bake and reference light
+/// the scene alike.
+///
+/// # Errors
+/// [`EvalError::Bake`] for bad settings or positions.
+pub fn bake_for_view(
+    scene: &Scene,
+    positions: &[Vec3],
+    resolution: u32,
+    samples_per_texel: u32,
+    view: &EvalView,
+    progress: Progress<'_>,
+) -> Result<(ProbeBake, f64), EvalError> {
+    let settings = BakeSettings {
+        resolution,
+        samples_per_texel,
+        bounces: view.settings.bounces,
+        seed: view.settings.seed,
+        environment: Some(view.environment),
+        ..BakeSettings::default()
+    };
+    let start = Instant::now();
+    let baked = bake(scene, positions, &settings, progress)?;
+    Ok((baked, start.elapsed().as_secs_f64()))
+}
+
+/// The probe data of a bake as the tracers take it.
+pub fn light_field(baked: &ProbeBake) -> LightField<'_> {
+    LightField {
+        resolution: baked.resolution(),
+        positions: baked.positions(),
+        radial_distance: baked.distances(),
+        normals: baked.normals(),
+        radiance: baked.radiance(),
+        sky_distance: MISS_DISTANCE * 0.5,
+    }
+}
+
+/// Bytes of a bake as the tracer holds it, split as seed 000's Table 5.2: the distance probes
+/// (per padded texel a 16-byte geometry record — distance, normal, depth bounds — plus the hi-Z
+/// pyramid, 8 bytes per coarse texel) and the other textures (radiance, 12 bytes per padded
+/// texel; irradiance and distance moments for diffuse shading).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ProbeMemory {
+    /// Geometry records and the min/max pyramid.
+    pub distance_bytes: u64,
+    /// Radiance, irradiance and moments.
+    pub other_bytes: u64,
+}
+
+impl ProbeMemory {
+    /// The memory of `baked` with a hi-Z pyramid of `top_level` levels above full resolution.
+    pub fn of(baked: &ProbeBake, top_level: u32) -> ProbeMemory {
+        let probes = baked.probe_count() as u64;
+        let n = u64::from(baked.resolution());
+        let padded = (n + 2) * (n + 2);
+        let mut pyramid = 0;
+        let mut side = n;
+        for _ in 0..top_level {
+            side /= 2;
+            if side == 0 {
+                break;
+            }
+            pyramid += side * side;
+        }
+        let per_probe_other = (baked.irradiance().len() as u64 * 12
+            + baked.moments().len() as u64 * 8)
+            / probes.max(1);
+        ProbeMemory {
+            distance_bytes: probes * (padded * 16 + pyramid * 8),
+            other_bytes: probes * (padded * 12 + per_probe_other),
+        }
+    }
+}
+
+/// Index structures of a probe set, with their report.
+pub struct BuiltIndex {
+    /// Delaunay, nearest-probe tree, Voronoi neighbours, octree.
+    pub index: ProbeIndex,
+    /// Counts, bytes and times.
+    pub report: IndexReport,
+    /// The regular grid's cage indexing, when the probes are a full regular grid.
+    pub grid: Option<ProbeGrid>,
+    /// Seconds to build everything.
+    pub seconds: f64,
+}
+
+/// Builds the Delaunay tetrahedralization, the nearest-probe tree, the Voronoi-sphere
+/// neighbour maps and the sparse voxel octree of `positions` (no edge casts: the probes are
+/// baked already).
+///
+/// # Errors
+/// [`EvalError::Index`].
+pub fn build_index(
+    scene: &Scene,
+    positions: &[Vec3],
+    svo_depth: u32,
+    grid: Option<ProbeGrid>,
+    seed: u64,
+) -> Result<BuiltIndex, EvalError> {
+    let start = Instant::now();
+    let options = IndexOptions {
+        edge_casts: None,
+        neighbour_resolution: 16,
+        svo: Some(SvoOptions {
+            max_depth: svo_depth,
+            seed,
+            ..SvoOptions::default()
+        }),
+    };
+    let (index, report) = ProbeIndex::build(positions, scene, &options)?;
+    Ok(BuiltIndex {
+        index,
+        report,
+        grid,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Which probes a ray tries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Selection {
+    /// The regular grid's 8-cage, seed 003 Alg. 6 order (only for full regular grids).
+    Grid,
+    /// The sparse voxel octree of best probes (seed 000 Alg. 5).
+    Svo,
+    /// The nearest probe and its Voronoi-sphere neighbours (seed 000 Alg. 4).
+    Voronoi,
+}
+
+impl Selection {
+    /// Every selection.
+    pub const ALL: [Selection; 3] = [Selection::Grid, Selection::Svo, Selection::Voronoi];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Selection::Grid => "grid",
+            Selection::Svo => "svo",
+            Selection::Voronoi => "voronoi",
+        }
+    }
+
+    /// The tracer's selection over `index`, or `None` when it does not apply (a grid cage for
+    /// probes that are not a full regular grid).
+    pub fn of<'a>(self, index: &'a BuiltIndex) -> Option<ProbeSelection<'a>> {
+        match self {
+            Selection::Grid => index.grid.map(ProbeSelection::Grid),
+            Selection::Svo => index
+                .index
+                .svo
+                .as_ref()
+                .map(ProbeSelection::SparseVoxelOctree),
+            Selection::Voronoi => Some(ProbeSelection::Voronoi {
+                nearest: &index.index.nearest,
+                neighbours: &index.index.neighbours,
+            }),
+        }
+    }
+
+    /// Bytes of the selection structure.
+    pub fn bytes(self, index: &BuiltIndex) -> u64 {
+        match self {
+            Selection::Grid => 0,
+            Selection::Svo => index.report.svo.as_ref().map_or(0, |s| s.bytes as u64),
+            Selection::Voronoi => {
+                (index.report.nearest_bytes + index.report.neighbour_bytes) as u64
+            }
+        }
+    }
+}
+
+/// A single-probe trace algorithm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tracer {
+    /// McGuire 2017's coarse DDA and fine march.
+    TwoLevel,
+    /// Hi-Z over the min/max pyramid (seed 000 §4.3).
+    HiZ,
+}
+
+impl Tracer {
+    /// Both tracers.
+    pub const ALL: [Tracer; 2] = [Tracer::TwoLevel, Tracer::HiZ];
+
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tracer::TwoLevel => "two-level",
+            Tracer::HiZ => "hiz",
+        }
+    }
+
+    /// The tracer's options.
+    pub fn options(self) -> TraceOptions {
+        TraceOptions {
+            method: match self {
+                Tracer::TwoLevel => TraceMethod::TwoLevel,
+                Tracer::HiZ => TraceMethod::HiZ,
+            },
+            ..TraceOptions::default()
+        }
+    }
+}
+
+/// The GPU tracer when an adapter exists, else the CPU twin (same algorithm, same answers).
+pub enum Device {
+    /// wgpu on a GPU (or Mesa's lavapipe).
+    Gpu(Box<GpuTracer>, String),
+    /// The CPU reference of the same algorithm.
+    Cpu(CpuTracer),
+}
+
+impl Device {
+    /// The GPU tracer if an adapter exists, else the CPU twin (and why). With `require_gpu`,
+    /// no adapter is an error.
+    ///
+    /// # Errors
+    /// [`EvalError::Gpu`] when `require_gpu` and no adapter could be used.
+    pub fn open(require_gpu: bool) -> Result<(Device, Option<String>), EvalError> {
+        match GpuContext::new().and_then(|context| {
+            let name = format!(
+                "{} ({:?})",
+                context.adapter_info().name,
+                context.adapter_info().backend
+            );
+            GpuTracer::new(&context).map(|tracer| (tracer, name))
+        }) {
+            Ok((tracer, name)) => Ok((Device::Gpu(Box::new(tracer), name), None)),
+            Err(error) if !require_gpu => {
+                Ok((Device::Cpu(CpuTracer::new()), Some(error.to_string())))
+            }
+            Err(error) => Err(EvalError::Gpu(error)),
+        }
+    }
+
+    /// "gpu: NAME" or "cpu twin".
+    pub fn describe(&self) -> String {
+        match self {
+            Device::Gpu(_, name) => format!("gpu: {name}"),
+            Device::Cpu(_) => "cpu twin".to_owned(),
+        }
+    }
+
+    fn upload(
+        &mut self,
+        field: &LightField<'_>,
+        selection: &ProbeSelection<'_>,
+    ) -> Result<(), EvalError> {
+        let options = FieldOptions::default();
+        match self {
+            Device::Gpu(tracer, _) => tracer.upload(field, selection, &options)?,
+            Device::Cpu(tracer) => tracer.upload(field, selection, &options)?,
+        }
+        Ok(())
+    }
+
+    fn trace(
+        &mut self,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<probe_trace_gpu::TraceOutput, EvalError> {
+        Ok(match self {
+            Device::Gpu(tracer, _) => tracer.trace(rays, options)?,
+            Device::Cpu(tracer) => tracer.trace(rays, options)?,
+        })
+    }
+}
+
+/// What one trace of a view's rays through one probe set measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TraceMetrics {
+    /// The tracer.
+    pub tracer: Tracer,
+    /// The selection.
+    pub selection: Selection,
+    /// Rays traced.
+    pub rays: usize,
+    /// Milliseconds on the device (GPU timestamps when available, else wall-clock of the call).
+    pub trace_ms: f64,
+    /// Wall-clock milliseconds of the call (ray upload, dispatch, read-back).
+    pub wall_ms: f64,
+    /// Whether `trace_ms` comes from GPU timestamps.
+    pub gpu_timestamps: bool,
+    /// Mean texel fetches per ray.
+    pub fetches_per_ray: f64,
+    /// Mean probes tried per ray.
+    pub probes_per_ray: f64,
+    /// Share of rays answered HIT.
+    pub hit_rate: f64,
+    /// Share of rays answered UNKNOWN (fallback radiance).
+    pub unknown_rate: f64,
+    /// Share of rays whose status agrees with the BVH (HIT where it hits, MISS where it misses).
+    pub status_agreement: f64,
+    /// Of the rays both call hits, the share whose hit lies within one probe texel footprint of
+    /// the true hit (footprint: the texel's size at the answering probe's distance, widened for
+    /// obliquity up to 5×).
+    pub within_footprint: f64,
+    /// Mean distance between the probe hit and the true hit over rays both call hits (metres).
+    pub mean_position_error: f64,
+    /// Mean squared radiance error per ray (RGB mean), before weighting into pixels.
+    pub ray_mse: f64,
+    /// Mean squared error of the glossy image against the reference image.
+    pub mse: f64,
+    /// MSE divided by the reference image's mean squared value (comparable across scenes).
+    pub relative_mse: f64,
+    /// PSNR in dB against the reference's peak.
+    pub psnr: f64,
+}
+
+/// Traces a view's rays through a bake with one tracer and selection, and compares with the
+/// reference. Returns the metrics and the probes' glossy image.
+///
+/// # Errors
+/// [`EvalError`] from upload or trace.
+pub fn trace_view(
+    device: &mut Device,
+    baked: &ProbeBake,
+    index: &BuiltIndex,
+    view: &EvalView,
+    rays: &[TraceRay],
+    tracer: Tracer,
+    selection: Selection,
+) -> Result<Option<(TraceMetrics, Image)>, EvalError> {
+    let Some(probe_selection) = selection.of(index) else {
+        return Ok(None);
+    };
+    device.upload(&light_field(baked), &probe_selection)?;
+    let options = tracer.options();
+    // Warm up: the first dispatch compiles the pipeline (lavapipe: ~0.1 s).
+    let warm = rays.len().min(256);
+    device.trace(&rays[..warm], &options)?;
+    let output = device.trace(rays, &options)?;
+    let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
+    let image = accumulate_rays(
+        view.settings.width,
+        view.settings.height,
+        &view.rays,
+        &radiance,
+    )?;
+    let summary = TraceSummary::of(&output.results);
+    let comparison = compare_rays(baked, &view.reference, &output.results);
+    let mse = image.mse(&view.reference_image)?;
+    let reference_power = view
+        .reference_image
+        .rgb
+        .iter()
+        .map(|p| p.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / 3.0)
+        .sum::<f64>()
+        / view.reference_image.rgb.len().max(1) as f64;
+    let gpu_ms = output.timing.gpu.map(|d| d.as_secs_f64() * 1e3);
+    let wall_ms = output.timing.wall.as_secs_f64() * 1e3;
+    let metrics = TraceMetrics {
+        tracer,
+        selection,
+        rays: rays.len(),
+        trace_ms: gpu_ms.unwrap_or(wall_ms),
+        wall_ms,
+        gpu_timestamps: gpu_ms.is_some(),
+        fetches_per_ray: summary.fetches_per_ray,
+        probes_per_ray: summary.probes_per_ray,
+        hit_rate: summary.hits as f64 / summary.rays.max(1) as f64,
+        unknown_rate: summary.unknown as f64 / summary.rays.max(1) as f64,
+        status_agreement: comparison.status_agreement,
+        within_footprint: comparison.within_footprint,
+        mean_position_error: comparison.mean_position_error,
+        ray_mse: comparison.ray_mse,
+        mse,
+        relative_mse: if reference_power > 0.0 {
+            mse / reference_power
+        } else {
+            mse
+        },
+        psnr: image.psnr(&view.reference_image)?,
+    };
+    Ok(Some((metrics, image)))
+}
+
+/// Ray-by-ray agreement with the BVH reference.
+struct RayComparison {
+    status_agreement: f64,
+    within_footprint: f64,
+    mean_position_error: f64,
+    ray_mse: f64,
+}
+
+fn compare_rays(
+    baked: &ProbeBake,
+    reference: &[ReferenceSample],
+    results: &[RayResult],
+) -> RayComparison {
+    // The angular size of a texel of mean solid angle 4π/N².
+    let texel_angle = 2.0 * std::f32::consts::PI.sqrt() / baked.resolution() as f32;
+    let (mut agree, mut both, mut within, mut error_sum, mut se) =
+        (0usize, 0usize, 0usize, 0.0f64, 0.0f64);
+    for (truth, result) in reference.iter().zip(results) {
+        let d = result.radiance - truth.radiance;
+        se += f64::from(d.length_squared()) / 3.0;
+        match (&truth.hit, result.status) {
+            (Some(hit), RayStatus::Hit) => {
+                agree += 1;
+                both += 1;
+                let error = (result.position - hit.position).length();
+                error_sum += f64::from(error);
+                let footprint = result.probe.map_or(0.0, |p| {
+                    let probe = baked.positions()[p as usize];
+                    let to_hit = hit.position - probe;
+                    let distance = to_hit.length();
+                    let cosine = if distance > 0.0 {
+                        hit.geometric_normal.dot(to_hit / distance).abs().max(0.2)
+                    } else {
+                        1.0
+                    };
+                    distance * texel_angle / cosine
+                });
+                within += usize::from(error <= footprint);
+            }
+            (None, RayStatus::Miss) => agree += 1,
+            _ => {}
+        }
+    }
+    let n = results.len().max(1) as f64;
+    RayComparison {
+        status_agreement: agree as f64 / n,
+        within_footprint: within as f64 / both.max(1) as f64,
+        mean_position_error: error_sum / both.max(1) as f64,
+        ray_mse: se / n,
+    }
+}
