@@ -508,6 +508,7 @@ fn geometry_pass(
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeBake {
     pub(crate) scene_name: String,
+    pub(crate) scene_source: Option<String>,
     pub(crate) scene_content_hash: [u8; 32],
     pub(crate) settings: BakeSettings,
     pub(crate) environment: Environment,
@@ -559,6 +560,12 @@ impl ProbeBake {
     /// Name of the scene the bake was made from.
     pub fn scene_name(&self) -> &str {
         &self.scene_name
+    }
+
+    /// Where the scene came from, as [`probe_scene::Scene::open`] accepts it (a glTF path as
+    /// given when baking, or `builtin:NAME`); `None` for scenes built from triangles.
+    pub fn scene_source(&self) -> Option<&str> {
+        self.scene_source.as_deref()
     }
 
     /// [`Scene::content_hash`] of the scene the bake was made from.
@@ -753,6 +760,10 @@ pub fn bake(
     }
     Ok(ProbeBake {
         scene_name: scene.name().to_owned(),
+        scene_source: match scene.source() {
+            probe_scene::SceneSource::Triangles => None,
+            source => Some(source.to_string()),
+        },
         scene_content_hash: scene.content_hash(),
         settings: settings.clone(),
         environment,

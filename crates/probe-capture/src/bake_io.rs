@@ -228,6 +228,10 @@ struct ManifestSettings {
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
 struct ManifestScene {
     name: String,
+    /// Where the scene came from (`Scene::source`: a glTF path or `builtin:NAME`), so that
+    /// tools can reopen it; absent in bakes of scenes built from triangles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    source: Option<String>,
     content_hash: String,
 }
 
@@ -476,6 +480,7 @@ impl ProbeBake {
             tool: format!("probe-capture {}", env!("CARGO_PKG_VERSION")),
             scene: ManifestScene {
                 name: self.scene_name.clone(),
+                source: self.scene_source.clone(),
                 content_hash: hex(&self.scene_content_hash),
             },
             units: units(),
@@ -692,6 +697,7 @@ impl ProbeBake {
 
         Ok(ProbeBake {
             scene_name: manifest.scene.name,
+            scene_source: manifest.scene.source,
             scene_content_hash: checked.scene_hash,
             settings: checked.settings,
             environment: Environment::from(&manifest.environment),

@@ -36,6 +36,8 @@ enum Command {
     Reference(commands::reference::Args),
     /// Place probes automatically (grid, relocated grid, SDF, medial axis, seed 002, minimal).
     Place(commands::place::Args),
+    /// Render a camera through a bake's probes (glossy: GPU light-field trace; diffuse).
+    Render(commands::render::Args),
 }
 
 fn main() -> ExitCode {
@@ -46,6 +48,7 @@ fn main() -> ExitCode {
         Command::Bake(args) => commands::bake::run(args),
         Command::Reference(args) => commands::reference::run(args),
         Command::Place(args) => commands::place::run(args),
+        Command::Render(args) => commands::render::run(args),
     };
     match result {
         Ok(report) => {

@@ -4,4 +4,5 @@ pub mod bake;
 pub mod index;
 pub mod place;
 pub mod reference;
+pub mod render;
 pub mod scene_info;

@@ -14,8 +14,9 @@ use probe_capture::{
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
 use probe_scene::{Camera, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, GpuContext, GpuTracer, LightField, ProbeSelection, RayResult,
-    RayStatus, TraceMethod, TraceOptions, TraceRay, TraceSummary,
+    CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions, GpuContext, GpuTracer, Interpolation,
+    IrradianceField, LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint, TraceMethod,
+    TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
 use serde::Serialize;
 
@@ -381,7 +382,11 @@ impl Device {
         }
     }
 
-    fn upload(
+    /// Uploads probe maps and a selection.
+    ///
+    /// # Errors
+    /// [`EvalError::Upload`].
+    pub fn upload(
         &mut self,
         field: &LightField<'_>,
         selection: &ProbeSelection<'_>,
@@ -394,16 +399,88 @@ impl Device {
         Ok(())
     }
 
-    fn trace(
+    /// Traces rays through the uploaded probes.
+    ///
+    /// # Errors
+    /// [`EvalError::Trace`].
+    pub fn trace(
         &mut self,
         rays: &[TraceRay],
         options: &TraceOptions,
-    ) -> Result<probe_trace_gpu::TraceOutput, EvalError> {
+    ) -> Result<TraceOutput, EvalError> {
         Ok(match self {
             Device::Gpu(tracer, _) => tracer.trace(rays, options)?,
             Device::Cpu(tracer) => tracer.trace(rays, options)?,
         })
     }
+
+    /// Uploads a bake's irradiance probes (irradiance and distance moments) for diffuse
+    /// shading, blended by `interpolation`.
+    ///
+    /// # Errors
+    /// [`EvalError::Upload`].
+    pub fn upload_irradiance(
+        &mut self,
+        baked: &ProbeBake,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<(), EvalError> {
+        let settings = baked.settings();
+        let field = IrradianceField {
+            positions: baked.positions(),
+            irradiance_resolution: settings.irradiance_resolution,
+            irradiance: baked.irradiance(),
+            moments_resolution: settings.moments_resolution,
+            moments: baked.moments(),
+        };
+        match self {
+            Device::Gpu(tracer, _) => tracer.upload_irradiance(&field, interpolation)?,
+            Device::Cpu(tracer) => tracer.upload_irradiance(&field, interpolation)?,
+        }
+        Ok(())
+    }
+
+    /// Shades points diffusely from the uploaded irradiance probes.
+    ///
+    /// # Errors
+    /// [`EvalError::Trace`].
+    pub fn shade_diffuse(
+        &mut self,
+        points: &[ShadingPoint],
+        options: &DiffuseOptions,
+    ) -> Result<DiffuseOutput, EvalError> {
+        Ok(match self {
+            Device::Gpu(tracer, _) => tracer.shade_diffuse(points, options)?,
+            Device::Cpu(tracer) => tracer.shade_diffuse(points, options)?,
+        })
+    }
+}
+
+/// The regular grid `positions` form, if they do: an axis-aligned lattice of at least 2 probes
+/// per axis, listed x fastest, then y, then z (as `grid:NXxNYxNZ` and probe-place make them).
+pub fn detect_grid(positions: &[Vec3]) -> Option<ProbeGrid> {
+    let first = *positions.first()?;
+    let counts = [0usize, 1, 2].map(|axis| {
+        let mut values: Vec<f32> = positions.iter().map(|p| p[axis]).collect();
+        values.sort_by(f32::total_cmp);
+        values.dedup();
+        values.len()
+    });
+    if counts.iter().product::<usize>() != positions.len() || counts.iter().any(|&c| c < 2) {
+        return None;
+    }
+    let at = |i: usize| positions[i];
+    let spacing = Vec3::new(
+        at(1).x - first.x,
+        at(counts[0]).y - first.y,
+        at(counts[0] * counts[1]).z - first.z,
+    );
+    let grid = ProbeGrid::new(first, spacing, counts.map(|c| c as u32)).ok()?;
+    let tolerance = 1e-4 * spacing.max_element();
+    grid.positions()
+        .iter()
+        .zip(positions)
+        .all(|(a, b)| a.distance(*b) <= tolerance)
+        .then_some(grid)
 }
 
 /// What one trace of a view's rays through one probe set measured.

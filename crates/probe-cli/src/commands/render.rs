@@ -1,0 +1,324 @@
+//! `probes render`: render a camera's one-bounce glossy component by tracing reflection rays
+//! through a bake's light-field probes, or its diffuse component from the bake's irradiance
+//! probes, on the GPU (the CPU twin when no adapter exists).
+
+use crate::cli_error::CliError;
+use crate::output::Report;
+use crate::progress::spinner;
+use crate::spec::{camera, open_scene};
+use glam::Vec3;
+use probe_capture::Image;
+use probe_capture::{ProbeBake, accumulate_rays, reflection_rays, render_gbuffer};
+use probe_cli::eval::pipeline::{Device, Selection, Tracer, build_index, detect_grid, light_field};
+use probe_trace_gpu::{DiffuseOptions, Interpolation, ShadingPoint, TraceRay, TraceSummary};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Tracers on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum TracerArg {
+    /// Hi-Z over the min/max pyramid (seed 000 §4.3).
+    Hiz,
+    /// McGuire 2017's coarse DDA plus fine march.
+    TwoLevel,
+}
+
+/// Selections on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum SelectArg {
+    /// The regular grid's 8-cage (the bake's probes must be a regular grid).
+    Grid,
+    /// The sparse voxel octree of best probes.
+    Svo,
+    /// The nearest probe and its Voronoi-sphere neighbours.
+    Voronoi,
+}
+
+/// Components on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ComponentArg {
+    /// One-bounce indirect glossy: reflection rays traced through the light-field probes.
+    Glossy1,
+    /// Diffuse: albedo/π × irradiance probes blended with Chebyshev visibility.
+    Diffuse,
+}
+
+/// Arguments of `probes render`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A bake directory (`probes bake --out`).
+    pub bake: PathBuf,
+    /// The scene the bake was made from; by default the source recorded in the bake.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// A camera of the scene by name, `default`, or a pose `px,py,pz:tx,ty,tz[:yfov_degrees]`.
+    #[arg(long, default_value = "default")]
+    pub camera: String,
+    /// The single-probe tracer.
+    #[arg(long, value_enum, default_value_t = TracerArg::Hiz)]
+    pub tracer: TracerArg,
+    /// How rays choose probes.
+    #[arg(long, value_enum, default_value_t = SelectArg::Svo)]
+    pub select: SelectArg,
+    /// What to render.
+    #[arg(long, value_enum, default_value_t = ComponentArg::Glossy1)]
+    pub component: ComponentArg,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 360)]
+    pub height: u32,
+    /// GGX roughness of the reflection lobe; 0 for mirrors.
+    #[arg(long, default_value_t = 0.0)]
+    pub roughness: f32,
+    /// Reflection rays per pixel.
+    #[arg(long, default_value_t = 1)]
+    pub rays_per_pixel: u32,
+    /// Depth of the sparse voxel octree (for `--select svo`).
+    #[arg(long, default_value_t = 7)]
+    pub svo_depth: u32,
+    /// Seed of the reflection rays.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Fail instead of falling back to the CPU twin when no GPU adapter exists.
+    #[arg(long)]
+    pub require_gpu: bool,
+    /// Trace with the CPU twin of the GPU tracer (same algorithm, same answers).
+    #[arg(long, conflicts_with = "require_gpu")]
+    pub cpu: bool,
+    /// The EXR image to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write a tone-mapped PNG.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+}
+
+/// Renders and reports.
+pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
+    let loaded_without_check = ProbeBake::load(&args.bake, None)?;
+    let scene_spec = match (&args.scene, loaded_without_check.scene_source()) {
+        (Some(spec), _) => spec.clone(),
+        (None, Some(source)) => source.to_owned(),
+        (None, None) => {
+            return Err(CliError::InvalidArgument {
+                parameter: "--scene",
+                value: String::new(),
+                reason: "the bake records no scene source; name the scene it was baked from".into(),
+            });
+        }
+    };
+    let scene = open_scene(&scene_spec)?;
+    let baked = ProbeBake::load(&args.bake, Some(&scene))?;
+    let camera = camera(&scene, &args.camera)?;
+    let (mut device, fallback) = if args.cpu {
+        (Device::Cpu(probe_trace_gpu::CpuTracer::new()), None)
+    } else {
+        Device::open(args.require_gpu)?
+    };
+    let progress = spinner("rendering");
+    let start = Instant::now();
+    let gbuffer = render_gbuffer(&scene, &camera, args.width, args.height)?;
+    let grid = detect_grid(baked.positions());
+    let mut json = json!({
+        "command": "render",
+        "scene": scene.name(),
+        "bake": args.bake.display().to_string(),
+        "camera": camera.name,
+        "device": device.describe(),
+        "cpu_fallback_reason": fallback,
+        "width": args.width,
+        "height": args.height,
+        "probes": baked.probe_count(),
+    });
+    let image = if args.component == ComponentArg::Glossy1 {
+        let reflection = if args.roughness > 0.0 {
+            probe_capture::Reflection::Ggx {
+                roughness: args.roughness,
+            }
+        } else {
+            probe_capture::Reflection::Mirror
+        };
+        let rays = reflection_rays(&gbuffer, reflection, args.rays_per_pixel, args.seed)?;
+        let selection = match args.select {
+            SelectArg::Grid => Selection::Grid,
+            SelectArg::Svo => Selection::Svo,
+            SelectArg::Voronoi => Selection::Voronoi,
+        };
+        if selection == Selection::Grid && grid.is_none() {
+            return Err(CliError::InvalidArgument {
+                parameter: "--select",
+                value: "grid".into(),
+                reason: "the bake's probes are not a regular grid; use svo or voronoi".into(),
+            });
+        }
+        let index_start = Instant::now();
+        let index = build_index(&scene, baked.positions(), args.svo_depth, grid, args.seed)?;
+        let index_seconds = index_start.elapsed().as_secs_f64();
+        let Some(probe_selection) = selection.of(&index) else {
+            return Err(CliError::InvalidArgument {
+                parameter: "--select",
+                value: selection.name().into(),
+                reason: "this selection could not be built for the bake".into(),
+            });
+        };
+        let tracer = match args.tracer {
+            TracerArg::Hiz => Tracer::HiZ,
+            TracerArg::TwoLevel => Tracer::TwoLevel,
+        };
+        device.upload(&light_field(&baked), &probe_selection)?;
+        let trace_rays: Vec<TraceRay> = rays
+            .iter()
+            .map(|r| TraceRay::new(r.origin, r.direction))
+            .collect();
+        let options = tracer.options();
+        // The first dispatch compiles the pipeline; time the second.
+        device.trace(&trace_rays[..trace_rays.len().min(256)], &options)?;
+        let output = device.trace(&trace_rays, &options)?;
+        let summary = TraceSummary::of(&output.results);
+        let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
+        let map = json.as_object_mut().expect("an object");
+        map.insert("component".into(), json!("glossy1"));
+        map.insert("tracer".into(), json!(tracer.name()));
+        map.insert("select".into(), json!(selection.name()));
+        map.insert("rays".into(), json!(summary.rays));
+        map.insert(
+            "hit_rate".into(),
+            json!(summary.hits as f64 / summary.rays.max(1) as f64),
+        );
+        map.insert(
+            "miss_rate".into(),
+            json!(summary.misses as f64 / summary.rays.max(1) as f64),
+        );
+        map.insert(
+            "unknown_rate".into(),
+            json!(summary.unknown as f64 / summary.rays.max(1) as f64),
+        );
+        map.insert("fetches_per_ray".into(), json!(summary.fetches_per_ray));
+        map.insert("probes_per_ray".into(), json!(summary.probes_per_ray));
+        map.insert(
+            "trace_wall_ms".into(),
+            json!(output.timing.wall.as_secs_f64() * 1e3),
+        );
+        map.insert(
+            "trace_gpu_ms".into(),
+            json!(output.timing.gpu.map(|d| d.as_secs_f64() * 1e3)),
+        );
+        map.insert("index_seconds".into(), json!(index_seconds));
+        accumulate_rays(args.width, args.height, &rays, &radiance)?
+    } else {
+        let interpolation = match (&grid, args.select) {
+            (Some(grid), SelectArg::Grid) => Interpolation::Grid(*grid),
+            _ => Interpolation::Delaunay(&index_tetrahedra(&baked)?),
+        };
+        device.upload_irradiance(&baked, &interpolation)?;
+        let mut pixels = Vec::new();
+        let mut points = Vec::new();
+        for (i, sample) in gbuffer.pixels.iter().enumerate() {
+            if let Some(s) = sample {
+                pixels.push(i);
+                points.push(ShadingPoint::new(s.position, s.shading_normal));
+            }
+        }
+        let output = device.shade_diffuse(&points, &DiffuseOptions::default())?;
+        let mut image = Image::new(args.width, args.height);
+        for (&pixel, (result, sample)) in pixels.iter().zip(
+            output.results.iter().zip(
+                pixels
+                    .iter()
+                    .map(|&p| gbuffer.pixels[p].as_ref().expect("a hit")),
+            ),
+        ) {
+            let albedo = scene.materials()[sample.material as usize].base_color;
+            image.rgb[pixel] = (result.irradiance * albedo / std::f32::consts::PI).to_array();
+        }
+        let map = json.as_object_mut().expect("an object");
+        map.insert("component".into(), json!("diffuse"));
+        map.insert(
+            "interpolation".into(),
+            json!(if matches!(interpolation, Interpolation::Grid(_)) {
+                "grid"
+            } else {
+                "delaunay"
+            }),
+        );
+        map.insert("shading_points".into(), json!(points.len()));
+        map.insert(
+            "shade_wall_ms".into(),
+            json!(output.timing.wall.as_secs_f64() * 1e3),
+        );
+        map.insert(
+            "shade_gpu_ms".into(),
+            json!(output.timing.gpu.map(|d| d.as_secs_f64() * 1e3)),
+        );
+        image
+    };
+    progress.finish_and_clear();
+    image.save_exr(&args.out)?;
+    if let Some(png) = &args.png {
+        image.save_png(png)?;
+    }
+    let map = json.as_object_mut().expect("an object");
+    map.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
+    map.insert("out".into(), json!(args.out.display().to_string()));
+    map.insert(
+        "png".into(),
+        json!(args.png.as_ref().map(|p| p.display().to_string())),
+    );
+    Ok(Box::new(RenderSummary { json }))
+}
+
+fn index_tetrahedra(baked: &ProbeBake) -> Result<probe_index::Tetrahedralization, CliError> {
+    Ok(probe_index::Tetrahedralization::build(baked.positions())
+        .map_err(probe_index::IndexError::from)
+        .map_err(probe_cli::eval::EvalError::from)?)
+}
+
+struct RenderSummary {
+    json: Value,
+}
+
+impl Report for RenderSummary {
+    fn json(&self) -> Value {
+        self.json.clone()
+    }
+
+    fn text(&self) -> String {
+        let j = &self.json;
+        let number = |key: &str| j.get(key).and_then(Value::as_f64);
+        let mut text = format!(
+            "rendered {} of {} ({} probes) from camera {} on {}\n",
+            j["component"].as_str().unwrap_or("?"),
+            j["scene"].as_str().unwrap_or("?"),
+            j["probes"],
+            j["camera"].as_str().unwrap_or("?"),
+            j["device"].as_str().unwrap_or("?"),
+        );
+        if let Some(reason) = j["cpu_fallback_reason"].as_str() {
+            text.push_str(&format!("(no GPU: {reason}; traced with the CPU twin)\n"));
+        }
+        if let Some(rays) = number("rays") {
+            text.push_str(&format!(
+                "rays {rays:.0}: hit {:.2} %, miss {:.2} %, unknown {:.2} %; {:.1} texel fetches and {:.2} probes per ray; trace {:.1} ms wall{}\n",
+                100.0 * number("hit_rate").unwrap_or(0.0),
+                100.0 * number("miss_rate").unwrap_or(0.0),
+                100.0 * number("unknown_rate").unwrap_or(0.0),
+                number("fetches_per_ray").unwrap_or(0.0),
+                number("probes_per_ray").unwrap_or(0.0),
+                number("trace_wall_ms").unwrap_or(0.0),
+                number("trace_gpu_ms").map_or(String::new(), |ms| format!(", {ms:.2} ms GPU")),
+            ));
+        }
+        if let Some(points) = number("shading_points") {
+            text.push_str(&format!(
+                "shaded {points:.0} points ({} interpolation with Chebyshev visibility) in {:.1} ms\n",
+                j["interpolation"].as_str().unwrap_or("?"),
+                number("shade_wall_ms").unwrap_or(0.0),
+            ));
+        }
+        text.push_str(&format!("wrote {}\n", j["out"].as_str().unwrap_or("?")));
+        text
+    }
+}
