@@ -38,6 +38,8 @@ enum Command {
     Place(commands::place::Args),
     /// Render a camera through a bake's probes (glossy: GPU light-field trace; diffuse).
     Render(commands::render::Args),
+    /// Place, bake, index and trace on the built-in Cornell box; compare with the path tracer.
+    Demo(commands::demo::Args),
 }
 
 fn main() -> ExitCode {
@@ -49,6 +51,7 @@ fn main() -> ExitCode {
         Command::Reference(args) => commands::reference::run(args),
         Command::Place(args) => commands::place::run(args),
         Command::Render(args) => commands::render::run(args),
+        Command::Demo(args) => commands::demo::run(args),
     };
     match result {
         Ok(report) => {

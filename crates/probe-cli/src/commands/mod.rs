@@ -1,6 +1,7 @@
 //! One module per `probes` subcommand.
 
 pub mod bake;
+pub mod demo;
 pub mod index;
 pub mod place;
 pub mod reference;

@@ -2,6 +2,7 @@
 //! reference), the `probes demo` run, the `probes eval` sweep with its report and charts, and
 //! the failure suite.
 
+pub mod demo;
 pub mod pipeline;
 
 use std::path::PathBuf;
@@ -21,6 +22,9 @@ pub enum EvalError {
     /// Baking failed.
     #[error("baking: {0}")]
     Bake(#[from] probe_capture::BakeError),
+    /// Probe previews could not be written.
+    #[error("previews: {0}")]
+    Preview(#[from] probe_capture::PreviewError),
     /// An image operation failed.
     #[error("image: {0}")]
     Image(#[from] probe_capture::ImageError),
