@@ -40,6 +40,8 @@ enum Command {
     Render(commands::render::Args),
     /// Place, bake, index and trace on the built-in Cornell box; compare with the path tracer.
     Demo(commands::demo::Args),
+    /// The speed-against-accuracy sweep: report, CSV, JSON and charts.
+    Eval(commands::eval::Args),
 }
 
 fn main() -> ExitCode {
@@ -52,6 +54,7 @@ fn main() -> ExitCode {
         Command::Place(args) => commands::place::run(args),
         Command::Render(args) => commands::render::run(args),
         Command::Demo(args) => commands::demo::run(args),
+        Command::Eval(args) => commands::eval::run(args),
     };
     match result {
         Ok(report) => {

@@ -112,7 +112,9 @@ pub struct PlaceOptions {
     pub method: Method,
     /// An optimiser to run on the method's probes.
     pub optimize: Option<Optimizer>,
-    /// The most probes to keep (chosen greedily by coverage from the method's probes).
+    /// The most probes to keep (chosen greedily by coverage from the method's probes). For
+    /// [`Method::Minimal`] the budget is also used up: after the cover, candidates that raise
+    /// the atlas reward most are added until the set has `budget` probes.
     pub budget: Option<usize>,
     /// The share of atlas texels to cover, in (0, 1]; below 1 the method's probes are reduced
     /// to as few as reach it.
@@ -231,6 +233,70 @@ impl LightingOracle for CaptureOracle<'_> {
         }
         sum * (std::f32::consts::PI / self.samples as f32)
     }
+}
+
+/// Adds candidates to `chosen`, each time the one that raises the atlas reward R(P) (best-probe
+/// aggregation, default weights) the most, until `budget` probes or no candidate adds anything.
+/// Greedy on the marginal gain `Σ_texels max(0, score − best score so far)`.
+fn fill_to_budget(
+    atlas: &Atlas<'_>,
+    candidates: &[Vec3],
+    chosen: Vec<Vec3>,
+    budget: usize,
+) -> Vec<Vec3> {
+    use rayon::prelude::*;
+    if chosen.len() >= budget {
+        return chosen;
+    }
+    let weights = probe_place::RewardWeights::default();
+    let scale = atlas.distance_scale();
+    let mut best = vec![0.0f32; atlas.samples().len()];
+    for views in atlas.views_of_probes(&chosen) {
+        for v in views {
+            let score = weights.score(&v, scale);
+            let slot = &mut best[v.sample as usize];
+            *slot = slot.max(score);
+        }
+    }
+    let views = atlas.views_of_probes(candidates);
+    let mut used: Vec<bool> = candidates.iter().map(|c| chosen.contains(c)).collect();
+    let mut chosen = chosen;
+    while chosen.len() < budget {
+        let pick = views
+            .par_iter()
+            .enumerate()
+            .filter(|(i, _)| !used[*i])
+            .map(|(i, views)| {
+                let gain: f64 = views
+                    .iter()
+                    .map(|v| {
+                        f64::from((weights.score(v, scale) - best[v.sample as usize]).max(0.0))
+                    })
+                    .sum();
+                (i, gain)
+            })
+            .reduce(
+                || (usize::MAX, 0.0),
+                |a, b| {
+                    if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) {
+                        b
+                    } else {
+                        a
+                    }
+                },
+            );
+        if pick.0 == usize::MAX || pick.1 <= 0.0 {
+            break;
+        }
+        used[pick.0] = true;
+        for v in &views[pick.0] {
+            let score = weights.score(v, scale);
+            let slot = &mut best[v.sample as usize];
+            *slot = slot.max(score);
+        }
+        chosen.push(candidates[pick.0]);
+    }
+    chosen
 }
 
 fn positive(parameter: &'static str, value: f32) -> Result<f32, PlaceError> {
@@ -365,7 +431,12 @@ pub fn place(scene: &Scene, options: &PlaceOptions) -> Result<Placement, PlaceEr
                     refine: None,
                 },
             )?;
-            set.positions()
+            match options.budget {
+                // With a budget the set uses it: the cover first, then the candidates that
+                // raise the reward most (better views of what is already seen).
+                Some(budget) => fill_to_budget(&atlas, &candidates, set.positions(), budget),
+                None => set.positions(),
+            }
         }
     };
     // A budget or a coverage target below 1 keeps as few of the method's probes as reach it.

@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod demo;
+pub mod eval;
 pub mod index;
 pub mod place;
 pub mod reference;

@@ -4,6 +4,7 @@
 
 pub mod demo;
 pub mod pipeline;
+pub mod sweep;
 
 use std::path::PathBuf;
 

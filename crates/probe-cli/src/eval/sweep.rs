@@ -1,0 +1,1141 @@
+//! `probes eval`: the sweep of seed 000 §5, extended. For each scene and camera: placements
+//! (regular grids of several sizes, the classified and relocated grid, SDF skeleton and medial
+//! axis with and without Gibbs, the minimal set, and minimal sets at each grid's probe count)
+//! × tracers (two-level, hi-Z) × selections (grid cage, octree, Voronoi). Every point records
+//! probe count, bake time, memory, trace time, fetches per ray, MSE and PSNR of the glossy
+//! component against the path-traced reference. The report holds tables in the form of seed
+//! 000's Tables 5.1 and 5.2, the headline figures, and charts of error against time (Pareto
+//! front marked), probe count and memory.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use glam::Vec3;
+use probe_place::{
+    Atlas, AtlasParams, BackfaceVote, DescentParams, GibbsParams, RewardWeights, descend,
+    free_space_grid, gibbs,
+};
+use probe_scene::Scene;
+use serde::{Deserialize, Serialize};
+
+use super::pipeline::{
+    Device, EvalView, ProbeMemory, Selection, TraceMetrics, Tracer, ViewSettings, bake_for_view,
+    build_index, detect_grid, trace_view,
+};
+use super::{EvalError, write_atomic};
+use crate::chart::{ChartSpec, Point, Series, SeriesStyle, write_chart};
+use crate::placement::{Method, Optimizer, PlaceOptions, place};
+
+/// The sweep's configuration (`--config eval.toml`); every field has a default.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct EvalConfig {
+    /// Evaluation rays and reference.
+    pub view: ViewConfig,
+    /// Probe resolution (interior texels per side, a power of two).
+    pub resolution: u32,
+    /// Radiance samples per texel.
+    pub samples_per_texel: u32,
+    /// Depth of the sparse voxel octree.
+    pub svo_depth: u32,
+    /// Gibbs iterations for `+gibbs` placements.
+    pub gibbs_iterations: usize,
+    /// Atlas texels for placement and coverage.
+    pub atlas_texels: usize,
+    /// Tracers: `two-level`, `hiz`.
+    pub tracers: Vec<String>,
+    /// Selections: `grid`, `svo`, `voronoi`.
+    pub selections: Vec<String>,
+    /// Approximate probe counts of the regular grids made for every scene without its own
+    /// `grids` (dimensions follow the scene's aspect).
+    pub grid_counts: Vec<u32>,
+    /// Placements for every scene without its own `placements`: `sdf`, `sdf+gibbs`, `medial`,
+    /// `medial+gibbs`, `minimal`, `minimal@N`, `minimal@grids` (one minimal set per grid at
+    /// its count), `grid-relocated@N` (the relocated grid of about N probes),
+    /// `grid-relocated:NXxNYxNZ`.
+    pub placements: Vec<String>,
+    /// Fail instead of using the CPU twin when no GPU adapter exists.
+    pub require_gpu: bool,
+    /// The scenes.
+    pub scenes: Vec<SceneConfig>,
+}
+
+/// How the evaluation rays are made.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct ViewConfig {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Reflection rays per pixel.
+    pub rays_per_pixel: u32,
+    /// GGX roughness (0: mirror).
+    pub roughness: f32,
+    /// Shading samples per reference hit.
+    pub shading_samples: u32,
+    /// Diffuse bounces in the radiance.
+    pub bounces: u32,
+    /// Seed.
+    pub seed: u64,
+}
+
+impl Default for ViewConfig {
+    fn default() -> Self {
+        let v = ViewSettings::default();
+        Self {
+            width: v.width,
+            height: v.height,
+            rays_per_pixel: v.rays_per_pixel,
+            roughness: v.roughness,
+            shading_samples: v.shading_samples,
+            bounces: v.bounces,
+            seed: v.seed,
+        }
+    }
+}
+
+/// One scene of the sweep.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SceneConfig {
+    /// A glTF path or `builtin:NAME`.
+    pub scene: String,
+    /// Cameras by name (`default` for the scene's default).
+    #[serde(default = "default_cameras")]
+    pub cameras: Vec<String>,
+    /// Grid dimensions `NXxNYxNZ`; default from `grid_counts`.
+    #[serde(default)]
+    pub grids: Vec<String>,
+    /// Placements; default the configuration's `placements`.
+    #[serde(default)]
+    pub placements: Vec<String>,
+}
+
+fn default_cameras() -> Vec<String> {
+    vec!["default".into()]
+}
+
+impl Default for EvalConfig {
+    fn default() -> Self {
+        Self {
+            view: ViewConfig::default(),
+            resolution: 128,
+            samples_per_texel: 2,
+            svo_depth: 7,
+            gibbs_iterations: 30,
+            atlas_texels: 10_000,
+            tracers: vec!["two-level".into(), "hiz".into()],
+            selections: vec!["grid".into(), "svo".into(), "voronoi".into()],
+            grid_counts: vec![8, 27, 64, 125],
+            placements: [
+                "grid-relocated@64",
+                "sdf",
+                "sdf+gibbs",
+                "medial",
+                "medial+gibbs",
+                "minimal",
+                "minimal@grids",
+            ]
+            .map(String::from)
+            .to_vec(),
+            require_gpu: false,
+            scenes: Vec::new(),
+        }
+    }
+}
+
+impl EvalConfig {
+    /// Reads a TOML configuration.
+    ///
+    /// # Errors
+    /// [`EvalError::Config`] naming the file.
+    pub fn load(path: &Path) -> Result<EvalConfig, EvalError> {
+        let text = std::fs::read_to_string(path).map_err(|e| EvalError::Config {
+            path: Some(path.to_owned()),
+            reason: e.to_string(),
+        })?;
+        toml::from_str(&text).map_err(|e| EvalError::Config {
+            path: Some(path.to_owned()),
+            reason: e.to_string().replace('\n', " "),
+        })
+    }
+
+    fn invalid(&self, reason: String) -> EvalError {
+        EvalError::Config { path: None, reason }
+    }
+
+    fn tracers(&self) -> Result<Vec<Tracer>, EvalError> {
+        self.tracers
+            .iter()
+            .map(|t| match t.as_str() {
+                "two-level" => Ok(Tracer::TwoLevel),
+                "hiz" => Ok(Tracer::HiZ),
+                other => Err(self.invalid(format!(
+                    "unknown tracer {other:?} (expected two-level or hiz)"
+                ))),
+            })
+            .collect()
+    }
+
+    fn selections(&self) -> Result<Vec<Selection>, EvalError> {
+        self.selections
+            .iter()
+            .map(|s| match s.as_str() {
+                "grid" => Ok(Selection::Grid),
+                "svo" => Ok(Selection::Svo),
+                "voronoi" => Ok(Selection::Voronoi),
+                other => Err(self.invalid(format!(
+                    "unknown selection {other:?} (expected grid, svo or voronoi)"
+                ))),
+            })
+            .collect()
+    }
+}
+
+/// Grid dimensions of about `count` probes over `bounds`, following its aspect (each axis ≥ 1).
+pub fn grid_dims_for_count(size: Vec3, count: u32) -> [u32; 3] {
+    let size = size.max(Vec3::splat(1e-6));
+    let volume = size.x * size.y * size.z;
+    let k = (count as f32 / volume).cbrt();
+    let mut best = [1u32; 3];
+    let mut best_error = f32::INFINITY;
+    // Search around the ideal per-axis counts for the product nearest the target.
+    let ideal = size * k;
+    for dx in -1..=1 {
+        for dy in -1..=1 {
+            for dz in -1..=1 {
+                let dims = [
+                    (ideal.x.round() as i32 + dx).max(1) as u32,
+                    (ideal.y.round() as i32 + dy).max(1) as u32,
+                    (ideal.z.round() as i32 + dz).max(1) as u32,
+                ];
+                let product = (dims[0] * dims[1] * dims[2]) as f32;
+                let aspect_error: f32 = (0..3)
+                    .map(|i| (dims[i] as f32 / ideal[i].max(0.5)).ln().abs())
+                    .sum();
+                let error = (product / count as f32).ln().abs() * 3.0 + aspect_error;
+                if error < best_error {
+                    best_error = error;
+                    best = dims;
+                }
+            }
+        }
+    }
+    best
+}
+
+fn parse_dims(text: &str) -> Option<[u32; 3]> {
+    let parts: Vec<u32> = text.split('x').filter_map(|p| p.parse().ok()).collect();
+    (parts.len() == 3 && parts.iter().all(|&d| d > 0)).then(|| [parts[0], parts[1], parts[2]])
+}
+
+/// One placement of the sweep, resolved.
+#[derive(Clone, Debug, PartialEq)]
+struct PlacementSpec {
+    name: String,
+    family: &'static str,
+    options: PlaceOptions,
+}
+
+fn placement_specs(
+    config: &EvalConfig,
+    scene: &Scene,
+    scene_config: &SceneConfig,
+) -> Result<Vec<PlacementSpec>, EvalError> {
+    let size = scene.bounds().size();
+    let grids: Vec<[u32; 3]> = if scene_config.grids.is_empty() {
+        let mut dims: Vec<[u32; 3]> = config
+            .grid_counts
+            .iter()
+            .map(|&n| grid_dims_for_count(size, n))
+            .collect();
+        dims.dedup();
+        dims
+    } else {
+        scene_config
+            .grids
+            .iter()
+            .map(|g| {
+                parse_dims(g).ok_or_else(|| {
+                    config.invalid(format!(
+                        "grid {g:?} of {} is not NXxNYxNZ",
+                        scene_config.scene
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?
+    };
+    let with = |method: Method, optimize: Option<Optimizer>, budget: Option<usize>| PlaceOptions {
+        optimize,
+        budget,
+        iterations: config.gibbs_iterations,
+        atlas_texels: config.atlas_texels,
+        seed: config.view.seed,
+        ..PlaceOptions::new(method)
+    };
+    let mut specs: Vec<PlacementSpec> = grids
+        .iter()
+        .map(|&dims| PlacementSpec {
+            name: Method::Grid(dims).name(),
+            family: "grid",
+            options: with(Method::Grid(dims), None, None),
+        })
+        .collect();
+    let placements = if scene_config.placements.is_empty() {
+        &config.placements
+    } else {
+        &scene_config.placements
+    };
+    for text in placements {
+        let mut push = |family: &'static str, options: PlaceOptions| {
+            let mut name = options.method.name();
+            match options.optimize {
+                Some(Optimizer::Gibbs) => name.push_str("+gibbs"),
+                Some(Optimizer::Descent) => name.push_str("+descent"),
+                None => {}
+            }
+            if let Some(b) = options.budget {
+                name.push_str(&format!("@{b}"));
+            }
+            specs.push(PlacementSpec {
+                name,
+                family,
+                options,
+            });
+        };
+        match text.as_str() {
+            "sdf" => push("sdf", with(Method::Sdf, None, None)),
+            "sdf+gibbs" => push("sdf+gibbs", with(Method::Sdf, Some(Optimizer::Gibbs), None)),
+            "sdf+descent" => push(
+                "sdf+descent",
+                with(Method::Sdf, Some(Optimizer::Descent), None),
+            ),
+            "medial" => push("medial", with(Method::Medial, None, None)),
+            "medial+gibbs" => push(
+                "medial+gibbs",
+                with(Method::Medial, Some(Optimizer::Gibbs), None),
+            ),
+            "minimal" => push("minimal", with(Method::Minimal, None, None)),
+            "minimal@grids" => {
+                for &dims in &grids {
+                    let n = (dims[0] * dims[1] * dims[2]) as usize;
+                    push("minimal@N", with(Method::Minimal, None, Some(n)));
+                }
+            }
+            "spawn-merge" => push("spawn-merge", with(Method::SpawnMerge, None, None)),
+            "gradient-ascent" => push("gradient-ascent", with(Method::GradientAscent, None, None)),
+            other => {
+                if let Some(n) = other.strip_prefix("minimal@").and_then(|n| n.parse().ok()) {
+                    push("minimal@N", with(Method::Minimal, None, Some(n)));
+                } else if let Some(n) = other
+                    .strip_prefix("grid-relocated@")
+                    .and_then(|n| n.parse().ok())
+                {
+                    let dims = grid_dims_for_count(size, n);
+                    push(
+                        "grid-relocated",
+                        with(Method::GridRelocated(dims), None, None),
+                    );
+                } else if let Some(dims) =
+                    other.strip_prefix("grid-relocated:").and_then(parse_dims)
+                {
+                    push(
+                        "grid-relocated",
+                        with(Method::GridRelocated(dims), None, None),
+                    );
+                } else {
+                    return Err(config.invalid(format!(
+                        "unknown placement {other:?} (expected sdf, sdf+gibbs, sdf+descent, medial, \
+                         medial+gibbs, minimal, minimal@N, minimal@grids, spawn-merge, \
+                         gradient-ascent, grid-relocated@N or grid-relocated:NXxNYxNZ)"
+                    )));
+                }
+            }
+        }
+    }
+    // The same minimal set may come twice (e.g. minimal@N with N above the full set's size).
+    let mut seen = std::collections::HashSet::new();
+    specs.retain(|s| seen.insert(s.name.clone()));
+    Ok(specs)
+}
+
+/// One measured point of the sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepRecord {
+    /// The scene's name.
+    pub scene: String,
+    /// The camera.
+    pub camera: String,
+    /// The placement's name (method, optimiser, budget).
+    pub placement: String,
+    /// The placement's family for charts (`grid`, `grid-relocated`, `sdf`, ...).
+    pub family: String,
+    /// Probes.
+    pub probes: usize,
+    /// Share of the atlas's surface samples seen at a non-grazing angle.
+    pub coverage: f64,
+    /// Probes inside geometry.
+    pub probes_inside_geometry: usize,
+    /// Seconds to place.
+    pub place_seconds: f64,
+    /// Seconds to bake.
+    pub bake_seconds: f64,
+    /// Seconds to index.
+    pub index_seconds: f64,
+    /// Distance probes and hi-Z pyramid, MB.
+    pub distance_mb: f64,
+    /// Radiance, irradiance and moments, MB.
+    pub other_mb: f64,
+    /// The selection structure, MB.
+    pub selection_mb: f64,
+    /// The sum, MB.
+    pub total_mb: f64,
+    /// The trace.
+    #[serde(flatten)]
+    pub trace: TraceMetrics,
+}
+
+/// The sweep's results.
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepReport {
+    /// The configuration used.
+    pub config: EvalConfig,
+    /// What traced the rays.
+    pub device: String,
+    /// Every measured point.
+    pub records: Vec<SweepRecord>,
+    /// Reference render seconds per scene and camera.
+    pub reference_seconds: BTreeMap<String, f64>,
+    /// The headline figures.
+    pub headline: Headline,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+    /// Seconds for the whole sweep.
+    pub seconds: f64,
+}
+
+/// The headline figures, computed from the records.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Headline {
+    /// Per scene: fewest probes of an automatic placement that match the best grid's MSE,
+    /// divided by that grid's probe count (goal ≤ 0.4).
+    pub probes_to_match_best_grid: BTreeMap<String, Option<MatchFigure>>,
+    /// Per scene and grid: MSE of the minimal set of the grid's probe count divided by the
+    /// grid's MSE (goal ≤ 0.25).
+    pub mse_at_equal_count: BTreeMap<String, Vec<EqualCountFigure>>,
+    /// hi-Z trace time divided by two-level's, over every placement and selection measured
+    /// (goal ≤ 0.5): median, min, max.
+    pub hiz_time_ratio: Option<[f64; 3]>,
+    /// hi-Z texel fetches per ray divided by two-level's (goal ≤ 0.4): median, min, max.
+    pub hiz_fetch_ratio: Option<[f64; 3]>,
+}
+
+/// "Probes needed to match the best grid's MSE" for one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct MatchFigure {
+    /// The best grid.
+    pub grid: String,
+    /// Its probes.
+    pub grid_probes: usize,
+    /// Its MSE.
+    pub grid_mse: f64,
+    /// The automatic placement with the fewest probes at or below that MSE.
+    pub placement: String,
+    /// Its probes.
+    pub probes: usize,
+    /// Its MSE.
+    pub mse: f64,
+    /// probes / grid_probes.
+    pub ratio: f64,
+}
+
+/// "MSE at equal probe count" for one grid.
+#[derive(Clone, Debug, Serialize)]
+pub struct EqualCountFigure {
+    /// The grid.
+    pub grid: String,
+    /// Probes.
+    pub probes: usize,
+    /// The grid's MSE.
+    pub grid_mse: f64,
+    /// The automatic placement compared.
+    pub placement: String,
+    /// Its probes (at most the grid's).
+    pub placement_probes: usize,
+    /// Its MSE.
+    pub mse: f64,
+    /// mse / grid_mse.
+    pub ratio: f64,
+}
+
+fn median_min_max(mut values: Vec<f64>) -> Option<[f64; 3]> {
+    values.retain(|v| v.is_finite());
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    let n = values.len();
+    let median = if n % 2 == 1 {
+        values[n / 2]
+    } else {
+        0.5 * (values[n / 2 - 1] + values[n / 2])
+    };
+    Some([median, values[0], values[n - 1]])
+}
+
+/// The best (lowest-MSE) hi-Z record of each placement of a scene and camera.
+fn best_per_placement<'r>(records: &'r [SweepRecord], scene: &str) -> Vec<&'r SweepRecord> {
+    let mut best: BTreeMap<(&str, &str), &SweepRecord> = BTreeMap::new();
+    for r in records.iter().filter(|r| r.scene == scene) {
+        let key = (r.camera.as_str(), r.placement.as_str());
+        if best.get(&key).is_none_or(|b| r.trace.mse < b.trace.mse) {
+            best.insert(key, r);
+        }
+    }
+    best.into_values().collect()
+}
+
+fn headline(records: &[SweepRecord]) -> Headline {
+    let mut h = Headline::default();
+    let scenes: Vec<String> = {
+        let mut s: Vec<String> = records.iter().map(|r| r.scene.clone()).collect();
+        s.dedup();
+        s
+    };
+    for scene in &scenes {
+        let best = best_per_placement(records, scene);
+        let grids: Vec<&&SweepRecord> = best.iter().filter(|r| r.family == "grid").collect();
+        let autos: Vec<&&SweepRecord> = best
+            .iter()
+            .filter(|r| r.family != "grid" && r.family != "grid-relocated")
+            .collect();
+        let best_grid = grids
+            .iter()
+            .min_by(|a, b| a.trace.mse.total_cmp(&b.trace.mse));
+        let matched = best_grid.and_then(|g| {
+            autos
+                .iter()
+                .filter(|a| a.trace.mse <= g.trace.mse)
+                .min_by_key(|a| a.probes)
+                .map(|a| MatchFigure {
+                    grid: g.placement.clone(),
+                    grid_probes: g.probes,
+                    grid_mse: g.trace.mse,
+                    placement: a.placement.clone(),
+                    probes: a.probes,
+                    mse: a.trace.mse,
+                    ratio: a.probes as f64 / g.probes as f64,
+                })
+        });
+        h.probes_to_match_best_grid.insert(scene.clone(), matched);
+        let mut equal = Vec::new();
+        for g in &grids {
+            // The best automatic placement with at most the grid's probes, preferring the
+            // minimal set made for this count.
+            let candidate = autos
+                .iter()
+                .filter(|a| a.probes <= g.probes && a.probes * 10 >= g.probes * 8)
+                .min_by(|a, b| a.trace.mse.total_cmp(&b.trace.mse));
+            if let Some(a) = candidate {
+                equal.push(EqualCountFigure {
+                    grid: g.placement.clone(),
+                    probes: g.probes,
+                    grid_mse: g.trace.mse,
+                    placement: a.placement.clone(),
+                    placement_probes: a.probes,
+                    mse: a.trace.mse,
+                    ratio: a.trace.mse / g.trace.mse,
+                });
+            }
+        }
+        h.mse_at_equal_count.insert(scene.clone(), equal);
+    }
+    let mut time_ratios = Vec::new();
+    let mut fetch_ratios = Vec::new();
+    for r in records.iter().filter(|r| r.trace.tracer == Tracer::HiZ) {
+        if let Some(two) = records.iter().find(|o| {
+            o.trace.tracer == Tracer::TwoLevel
+                && o.scene == r.scene
+                && o.camera == r.camera
+                && o.placement == r.placement
+                && o.trace.selection == r.trace.selection
+        }) {
+            time_ratios.push(r.trace.trace_ms / two.trace.trace_ms);
+            fetch_ratios.push(r.trace.fetches_per_ray / two.trace.fetches_per_ray);
+        }
+    }
+    h.hiz_time_ratio = median_min_max(time_ratios);
+    h.hiz_fetch_ratio = median_min_max(fetch_ratios);
+    h
+}
+
+/// Runs the sweep and writes `report.md`, `results.csv`, `results.json` and the charts into
+/// `out`. `log` receives one line per step.
+///
+/// # Errors
+/// [`EvalError`] from any stage (a scene that fails to load stops the sweep: fix the list).
+pub fn run_sweep(
+    config: &EvalConfig,
+    out: &Path,
+    log: &dyn Fn(&str),
+) -> Result<SweepReport, EvalError> {
+    if config.scenes.is_empty() {
+        return Err(
+            config.invalid("no scenes: name them on the command line or in [[scenes]]".into())
+        );
+    }
+    let tracers = config.tracers()?;
+    let selections = config.selections()?;
+    std::fs::create_dir_all(out).map_err(|source| EvalError::Write {
+        path: out.to_owned(),
+        source,
+    })?;
+    let start = Instant::now();
+    let (mut device, fallback) = Device::open(config.require_gpu)?;
+    if let Some(reason) = &fallback {
+        log(&format!(
+            "no GPU adapter ({reason}); tracing with the CPU twin"
+        ));
+    }
+    log(&format!("tracer device: {}", device.describe()));
+    let mut records = Vec::new();
+    let mut reference_seconds = BTreeMap::new();
+    let mut files = Vec::new();
+    for scene_config in &config.scenes {
+        let scene = Scene::open(&scene_config.scene)?;
+        let specs = placement_specs(config, &scene, scene_config)?;
+        for camera_name in &scene_config.cameras {
+            let camera = if camera_name == "default" {
+                scene.default_camera()
+            } else {
+                scene.camera(camera_name).cloned().ok_or_else(|| {
+                    config.invalid(format!(
+                        "scene {} has no camera {camera_name:?}",
+                        scene_config.scene
+                    ))
+                })?
+            };
+            let settings = ViewSettings {
+                width: config.view.width,
+                height: config.view.height,
+                rays_per_pixel: config.view.rays_per_pixel,
+                roughness: config.view.roughness,
+                shading_samples: config.view.shading_samples,
+                bounces: config.view.bounces,
+                seed: config.view.seed,
+            };
+            log(&format!("{} / {}: reference", scene.name(), camera.name));
+            let view = EvalView::render(&scene, camera, settings, &|_, _| {})?;
+            reference_seconds.insert(
+                format!("{}/{}", scene.name(), view.camera.name),
+                view.seconds,
+            );
+            let rays = view.trace_rays();
+            for spec in &specs {
+                log(&format!(
+                    "{} / {}: {}",
+                    scene.name(),
+                    view.camera.name,
+                    spec.name
+                ));
+                let placed = place(&scene, &spec.options)?;
+                let (baked, bake_seconds) = bake_for_view(
+                    &scene,
+                    &placed.probes.positions,
+                    config.resolution,
+                    config.samples_per_texel,
+                    &view,
+                    &|_, _| {},
+                )?;
+                let grid = placed
+                    .full_grid
+                    .and_then(|_| detect_grid(baked.positions()));
+                let index = build_index(
+                    &scene,
+                    baked.positions(),
+                    config.svo_depth,
+                    grid,
+                    config.view.seed,
+                )?;
+                let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
+                for &selection in &selections {
+                    for &tracer in &tracers {
+                        let Some((metrics, _)) = trace_view(
+                            &mut device,
+                            &baked,
+                            &index,
+                            &view,
+                            &rays,
+                            tracer,
+                            selection,
+                        )?
+                        else {
+                            continue;
+                        };
+                        let mb = |bytes: u64| bytes as f64 / 1e6;
+                        let selection_mb = mb(selection.bytes(&index));
+                        records.push(SweepRecord {
+                            scene: scene.name().to_owned(),
+                            camera: view.camera.name.clone(),
+                            placement: spec.name.clone(),
+                            family: spec.family.to_owned(),
+                            probes: baked.probe_count(),
+                            coverage: placed.report.coverage,
+                            probes_inside_geometry: placed.report.probes_inside_geometry,
+                            place_seconds: placed.report.seconds,
+                            bake_seconds,
+                            index_seconds: index.seconds,
+                            distance_mb: mb(memory.distance_bytes),
+                            other_mb: mb(memory.other_bytes),
+                            selection_mb,
+                            total_mb: mb(memory.distance_bytes + memory.other_bytes) + selection_mb,
+                            trace: metrics,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let headline = headline(&records);
+    let mut report = SweepReport {
+        config: config.clone(),
+        device: device.describe(),
+        records,
+        reference_seconds,
+        headline,
+        files: Vec::new(),
+        seconds: 0.0,
+    };
+    files.extend(write_charts(&report, out)?);
+    files.push(write_optimiser_chart(out)?.0);
+    report.seconds = start.elapsed().as_secs_f64();
+    let csv = out.join("results.csv");
+    write_atomic(&csv, to_csv(&report.records).as_bytes())?;
+    files.push(csv);
+    let json = out.join("results.json");
+    report.files = files.clone();
+    write_atomic(
+        &json,
+        serde_json::to_string_pretty(&report)
+            .unwrap_or_default()
+            .as_bytes(),
+    )?;
+    files.push(json);
+    let markdown = out.join("report.md");
+    report.files = files.clone();
+    report.files.push(markdown.clone());
+    write_atomic(&markdown, report_markdown(&report).as_bytes())?;
+    Ok(report)
+}
+
+fn to_csv(records: &[SweepRecord]) -> String {
+    let mut text = String::from(
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr\n",
+    );
+    for r in records {
+        let t = &r.trace;
+        let _ = writeln!(
+            text,
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4}",
+            r.scene,
+            r.camera,
+            r.placement,
+            r.family,
+            r.probes,
+            r.coverage,
+            r.probes_inside_geometry,
+            r.place_seconds,
+            r.bake_seconds,
+            r.index_seconds,
+            r.distance_mb,
+            r.other_mb,
+            r.selection_mb,
+            r.total_mb,
+            t.tracer.name(),
+            t.selection.name(),
+            t.rays,
+            t.trace_ms,
+            t.wall_ms,
+            t.gpu_timestamps,
+            t.fetches_per_ray,
+            t.probes_per_ray,
+            t.hit_rate,
+            t.unknown_rate,
+            t.status_agreement,
+            t.within_footprint,
+            t.mean_position_error,
+            t.ray_mse,
+            t.mse,
+            t.relative_mse,
+            t.psnr
+        );
+    }
+    text
+}
+
+fn slug(text: &str) -> String {
+    text.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The chart families, in legend order.
+const FAMILIES: [&str; 9] = [
+    "grid",
+    "grid-relocated",
+    "sdf",
+    "sdf+gibbs",
+    "sdf+descent",
+    "medial",
+    "medial+gibbs",
+    "minimal",
+    "minimal@N",
+];
+
+fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalError> {
+    let mut files = Vec::new();
+    let mut scenes: Vec<&str> = report.records.iter().map(|r| r.scene.as_str()).collect();
+    scenes.dedup();
+    for scene in scenes {
+        let records: Vec<&SweepRecord> =
+            report.records.iter().filter(|r| r.scene == scene).collect();
+        let best = best_per_placement(&report.records, scene);
+        let family_series =
+            |points: &dyn Fn(&SweepRecord) -> Option<Point>, all: bool| -> Vec<Series> {
+                FAMILIES
+                    .iter()
+                    .filter_map(|family| {
+                        let source: Vec<&SweepRecord> = if all {
+                            records
+                                .iter()
+                                .copied()
+                                .filter(|r| r.family == *family)
+                                .collect()
+                        } else {
+                            best.iter()
+                                .copied()
+                                .filter(|r| r.family == *family)
+                                .collect()
+                        };
+                        let mut pts: Vec<Point> = source.iter().filter_map(|r| points(r)).collect();
+                        pts.sort_by(|a, b| a.x.total_cmp(&b.x));
+                        (!pts.is_empty()).then(|| {
+                            Series::new(
+                                *family,
+                                if all || *family == "sdf" || *family == "medial" {
+                                    SeriesStyle::Markers
+                                } else {
+                                    SeriesStyle::LineAndMarkers
+                                },
+                                pts,
+                            )
+                        })
+                    })
+                    .collect()
+            };
+        let charts = [
+            (
+                "error_vs_time",
+                format!("{scene}: glossy error against trace time (every tracer and selection)"),
+                "trace time (ms)",
+                family_series(&|r| Some(Point::new(r.trace.trace_ms, r.trace.mse)), true),
+                true,
+            ),
+            (
+                "error_vs_probes",
+                format!("{scene}: glossy error against probe count (best selection, hi-Z)"),
+                "probes",
+                family_series(
+                    &|r| {
+                        Some(Point::labelled(
+                            r.probes as f64,
+                            r.trace.mse,
+                            r.placement.clone(),
+                        ))
+                    },
+                    false,
+                ),
+                false,
+            ),
+            (
+                "error_vs_memory",
+                format!("{scene}: glossy error against memory (probe textures + selection)"),
+                "memory (MB)",
+                family_series(&|r| Some(Point::new(r.total_mb, r.trace.mse)), false),
+                true,
+            ),
+        ];
+        for (stem, title, x_label, series, pareto) in charts {
+            if series.is_empty() {
+                continue;
+            }
+            let mut spec = ChartSpec::new(title, x_label, "MSE of the glossy component");
+            spec.x_log = true;
+            spec.y_log = true;
+            spec.pareto_front = pareto;
+            spec.series = series;
+            let png = out.join(format!("{stem}_{}.png", slug(scene)));
+            let svg = out.join(format!("{stem}_{}.svg", slug(scene)));
+            write_chart(&spec, &png, &svg)?;
+            files.push(png);
+            files.push(svg);
+        }
+    }
+    Ok(files)
+}
+
+/// The chart of issue 4: on the built-in Cornell box, one probe under plain descent over the
+/// support cube settles into seed 000's back-and-forth oscillation while Gibbs sampling from
+/// the same start keeps improving. Returns the PNG and SVG paths.
+///
+/// # Errors
+/// [`EvalError`] from the atlas, the optimisers or the chart.
+pub fn write_optimiser_chart(out: &Path) -> Result<(PathBuf, PathBuf), EvalError> {
+    let scene = Scene::builtin("cornell")?;
+    let free = BackfaceVote::new(&scene);
+    let pool = free_space_grid(&free, 0.035);
+    let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 3000), &pool)
+        .map_err(crate::placement::PlaceError::from)?;
+    let start = [Vec3::new(0.1, 0.1, 0.1)];
+    let iterations = 30;
+    let descent = descend(
+        &atlas,
+        &free,
+        &start,
+        &DescentParams {
+            step: 0.04,
+            max_iterations: iterations,
+            weights: RewardWeights::default(),
+        },
+    )
+    .map_err(crate::placement::PlaceError::from)?;
+    let mut series = vec![Series::from_values(
+        "descent (moves to the best support probe)",
+        &descent.history.iter().map(|r| r.reward).collect::<Vec<_>>(),
+    )];
+    for seed in 0..3 {
+        let result = gibbs(
+            &atlas,
+            &free,
+            &start,
+            &GibbsParams {
+                seed,
+                max_iterations: iterations,
+                ..GibbsParams::with_step(0.04)
+            },
+        )
+        .map_err(crate::placement::PlaceError::from)?;
+        // The best reward met so far: Gibbs keeps the best set it visits.
+        let mut best = f64::MIN;
+        let values: Vec<f64> = result
+            .history
+            .iter()
+            .map(|r| {
+                best = best.max(r.reward);
+                best
+            })
+            .collect();
+        series.push(Series::from_values(
+            format!("Gibbs, seed {seed} (best so far)"),
+            &values,
+        ));
+    }
+    let mut spec = ChartSpec::new(
+        "One probe in the Cornell box: descent oscillates, Gibbs escapes",
+        "iteration",
+        "reward R(P) (mean texel fitness, eq. 3.1-3.2)",
+    );
+    spec.series = series;
+    let png = out.join("gibbs_vs_descent.png");
+    let svg = out.join("gibbs_vs_descent.svg");
+    write_chart(&spec, &png, &svg)?;
+    Ok((png, svg))
+}
+
+fn report_markdown(report: &SweepReport) -> String {
+    let mut text = String::new();
+    let c = &report.config;
+    let _ = writeln!(text, "# Evaluation report\n");
+    let _ = writeln!(
+        text,
+        "Glossy (one-bounce, {}) component at {}×{} ({} reflection ray(s) per pixel), probes at {}² with {} samples per texel and {} bounce(s), octree depth {}; traced on {}. Generated by `probes eval` in {:.0} s.\n",
+        if c.view.roughness > 0.0 {
+            format!("GGX roughness {}", c.view.roughness)
+        } else {
+            "mirror".to_owned()
+        },
+        c.view.width,
+        c.view.height,
+        c.view.rays_per_pixel,
+        c.resolution,
+        c.samples_per_texel,
+        c.view.bounces,
+        c.svo_depth,
+        report.device,
+        report.seconds
+    );
+    let h = &report.headline;
+    let _ = writeln!(text, "## Headline figures\n");
+    let _ = writeln!(
+        text,
+        "| scene | best grid | its MSE | fewest automatic probes matching it | ratio (goal ≤ 0.4) |"
+    );
+    let _ = writeln!(text, "|---|---|---:|---|---:|");
+    for (scene, figure) in &h.probes_to_match_best_grid {
+        match figure {
+            Some(f) => {
+                let _ = writeln!(
+                    text,
+                    "| {scene} | {} ({} probes) | {:.3e} | {} ({} probes, MSE {:.3e}) | {:.2} |",
+                    f.grid, f.grid_probes, f.grid_mse, f.placement, f.probes, f.mse, f.ratio
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    text,
+                    "| {scene} | — | — | no automatic placement reached the best grid's MSE | — |"
+                );
+            }
+        }
+    }
+    let _ = writeln!(
+        text,
+        "\n| scene | grid | probes | grid MSE | automatic placement (≤ same count) | its MSE | ratio (goal ≤ 0.25) |"
+    );
+    let _ = writeln!(text, "|---|---|---:|---:|---|---:|---:|");
+    for (scene, figures) in &h.mse_at_equal_count {
+        for f in figures {
+            let _ = writeln!(
+                text,
+                "| {scene} | {} | {} | {:.3e} | {} ({} probes) | {:.3e} | {:.2} |",
+                f.grid, f.probes, f.grid_mse, f.placement, f.placement_probes, f.mse, f.ratio
+            );
+        }
+    }
+    if let Some([median, min, max]) = h.hiz_time_ratio {
+        let _ = writeln!(
+            text,
+            "\nhi-Z trace time / two-level trace time (same rays, probes and selection): median {median:.2}, range {min:.2}–{max:.2} (goal ≤ 0.5)."
+        );
+    }
+    if let Some([median, min, max]) = h.hiz_fetch_ratio {
+        let _ = writeln!(
+            text,
+            "hi-Z texel fetches per ray / two-level's: median {median:.2}, range {min:.2}–{max:.2} (goal ≤ 0.4)."
+        );
+    }
+    // Seed 000 Table 5.1: time per placement and tracer.
+    let _ = writeln!(
+        text,
+        "\n## Trace time by placement (the form of seed 000's Table 5.1)\n"
+    );
+    let _ = writeln!(
+        text,
+        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE |"
+    );
+    let _ = writeln!(text, "|---|---:|---|---|---|---:|---:|---:|---:|");
+    for r in &report.records {
+        let _ = writeln!(
+            text,
+            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} |",
+            r.scene,
+            r.probes,
+            r.placement,
+            r.trace.selection.name(),
+            r.trace.tracer.name(),
+            r.trace.trace_ms,
+            r.trace.fetches_per_ray,
+            r.trace.probes_per_ray,
+            r.trace.mse
+        );
+    }
+    // Seed 000 Table 5.2: memory per placement.
+    let _ = writeln!(text, "\n## Memory (the form of seed 000's Table 5.2, MB)\n");
+    let _ = writeln!(
+        text,
+        "| scene | placement | probes | distance probes + hi-Z | other textures | SVO | Voronoi (tree + neighbours) | total with SVO |"
+    );
+    let _ = writeln!(text, "|---|---|---:|---:|---:|---:|---:|---:|");
+    let mut seen = std::collections::HashSet::new();
+    for r in &report.records {
+        if !seen.insert((r.scene.clone(), r.placement.clone())) {
+            continue;
+        }
+        let selection_mb = |s: Selection| {
+            report
+                .records
+                .iter()
+                .find(|o| {
+                    o.scene == r.scene && o.placement == r.placement && o.trace.selection == s
+                })
+                .map(|o| o.selection_mb)
+        };
+        let svo = selection_mb(Selection::Svo);
+        let voronoi = selection_mb(Selection::Voronoi);
+        let fmt = |v: Option<f64>| v.map_or("—".to_owned(), |v| format!("{v:.2}"));
+        let _ = writeln!(
+            text,
+            "| {} | {} | {} | {:.2} | {:.2} | {} | {} | {:.2} |",
+            r.scene,
+            r.placement,
+            r.probes,
+            r.distance_mb,
+            r.other_mb,
+            fmt(svo),
+            fmt(voronoi),
+            r.distance_mb + r.other_mb + svo.unwrap_or(0.0)
+        );
+    }
+    let _ = writeln!(text, "\n## Placements\n");
+    let _ = writeln!(
+        text,
+        "| scene | placement | probes | coverage | inside geometry | place (s) | bake (s) | index (s) |"
+    );
+    let _ = writeln!(text, "|---|---|---:|---:|---:|---:|---:|---:|");
+    let mut seen = std::collections::HashSet::new();
+    for r in &report.records {
+        if seen.insert((r.scene.clone(), r.placement.clone())) {
+            let _ = writeln!(
+                text,
+                "| {} | {} | {} | {:.2} % | {} | {:.2} | {:.2} | {:.2} |",
+                r.scene,
+                r.placement,
+                r.probes,
+                100.0 * r.coverage,
+                r.probes_inside_geometry,
+                r.place_seconds,
+                r.bake_seconds,
+                r.index_seconds
+            );
+        }
+    }
+    let _ = writeln!(text, "\n## Charts\n");
+    for file in &report.files {
+        if file.extension().is_some_and(|e| e == "png") {
+            let name = file
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let _ = writeln!(text, "![{name}]({name})");
+        }
+    }
+    let _ = writeln!(
+        text,
+        "\nEvery point is in `results.csv` and `results.json`. Trace times are {}.",
+        if report.device.starts_with("gpu") {
+            "GPU timestamps (or wall-clock of the call where timestamps are missing) on the device above"
+        } else {
+            "wall-clock on the CPU twin"
+        }
+    );
+    text
+}
