@@ -114,7 +114,10 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let baked = ProbeBake::load(&args.bake, Some(&scene))?;
     let camera = camera(&scene, &args.camera)?;
     let (mut device, fallback) = if args.cpu {
-        (Device::Cpu(probe_trace_gpu::CpuTracer::new()), None)
+        (
+            Device::Cpu(Box::new(probe_trace_gpu::CpuTracer::new())),
+            None,
+        )
     } else {
         Device::open(args.require_gpu)?
     };

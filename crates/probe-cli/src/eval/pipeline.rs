@@ -348,7 +348,7 @@ pub enum Device {
     /// wgpu on a GPU (or Mesa's lavapipe).
     Gpu(Box<GpuTracer>, String),
     /// The CPU reference of the same algorithm.
-    Cpu(CpuTracer),
+    Cpu(Box<CpuTracer>),
 }
 
 impl Device {
@@ -367,9 +367,10 @@ impl Device {
             GpuTracer::new(&context).map(|tracer| (tracer, name))
         }) {
             Ok((tracer, name)) => Ok((Device::Gpu(Box::new(tracer), name), None)),
-            Err(error) if !require_gpu => {
-                Ok((Device::Cpu(CpuTracer::new()), Some(error.to_string())))
-            }
+            Err(error) if !require_gpu => Ok((
+                Device::Cpu(Box::new(CpuTracer::new())),
+                Some(error.to_string()),
+            )),
             Err(error) => Err(EvalError::Gpu(error)),
         }
     }
