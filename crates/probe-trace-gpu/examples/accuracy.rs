@@ -23,9 +23,7 @@ use probe_scene::{Ray, Scene};
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, TraceMethod, TraceOptions, TraceSummary,
 };
-use support::{
-    Geometry, accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays,
-};
+use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
 
 fn header() {
     println!(
@@ -60,7 +58,7 @@ fn row(
             "grid" => ProbeSelection::Grid(grid),
             "svo" => {
                 svo = SparseVoxelOctree::build(
-                    &Geometry(scene),
+                    scene,
                     &positions,
                     &SvoOptions {
                         max_depth: 7,

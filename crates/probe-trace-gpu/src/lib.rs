@@ -186,10 +186,14 @@ mod error;
 mod gpu;
 mod input;
 mod packed;
+mod pyramid;
 mod ray;
 mod surface;
 
-pub use cpu::{CpuTracer, DiffuseOutput, TraceOutput};
+pub use cpu::{
+    CpuTracer, DiffuseOutput, FetchKind, FetchPhase, FetchProfile, PHASE_WINDOW_TEXELS,
+    PROFILE_LEVELS, TraceOutput,
+};
 pub use error::{GpuError, TraceError, UploadError};
 pub use gpu::{GpuContext, GpuTracer};
 pub use input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};

@@ -3,12 +3,13 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use probe_index::{GridParams, NO_PROBE, SVO_LEAF_BIT, SvoHeader};
-use probe_octa::{FineRead, MinMaxPyramid, OctaLayout, OctaMap};
+use probe_index::{GridParams, NO_PROBE, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader};
+use probe_octa::OctaLayout;
 
 use crate::error::UploadError;
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
-use crate::surface::{PYRAMID_MARGIN, pack_normal, texel_center, texel_surface, unpack_normal};
+use crate::pyramid::TexelRegion;
+use crate::surface::{pack_normal, texel_center, texel_surface, unpack_normal};
 
 /// Smallest and largest accepted light-field resolutions.
 pub(crate) const MIN_RESOLUTION: u32 = 8;
@@ -53,9 +54,10 @@ pub(crate) struct PackedField {
     /// Per padded texel: radial distance bits (sign bit set on edge texels), packed normal,
     /// near and far bound bits (see [`TexelBounds`]).
     pub geometry: Vec<[u32; 4]>,
-    /// Pyramid levels `1..level_count`: per texel `(min near, max far)`, level `l` of probe `p`
-    /// at `level_offsets[l] + p·(N >> l)²`, row-major.
-    pub pyramid: Vec<[f32; 2]>,
+    /// Pyramid levels `1..level_count`: per texel `(min near bits, max far bits, packed outward
+    /// normal, plane offset bits)` ([`crate::pyramid`]), level `l` of probe `p` at
+    /// `level_offsets[l] + p·(N >> l)²`, row-major.
+    pub pyramid: Vec<[u32; 4]>,
     /// Start of each level in `pyramid` (level 0 unused).
     pub level_offsets: [u32; MAX_LEVELS],
     /// Levels including level 0: `log2(N) + 1`.
@@ -294,6 +296,50 @@ impl TexelBounds {
     }
 }
 
+impl TexelBounds {
+    /// The pass regions of the interior texels (row-major) with their `near` and `far`, for
+    /// the pyramid ([`crate::pyramid`]): what [`crate::cpu::march`]'s fine test lets through.
+    fn regions(
+        &self,
+        layout: &OctaLayout,
+        centers: &[Vec3],
+        sky: f32,
+        thickness_scale: f32,
+    ) -> Vec<(TexelRegion, f32, f32)> {
+        let n = self.resolution;
+        let mut out = Vec::with_capacity((n * n) as usize);
+        for iy in 0..n {
+            for ix in 0..n {
+                let i = (iy * n + ix) as usize;
+                let texel = self.packed[layout.interior_index(ix, iy)];
+                let nearer_edge = texel[3] & SIGN_BIT != 0;
+                let distance = f32::from_bits(texel[0] & !SIGN_BIT);
+                let (near, far) = (self.near[i], self.far[i]);
+                let region = if nearer_edge {
+                    TexelRegion::Ball(near)
+                } else if distance >= sky {
+                    TexelRegion::Sky
+                } else {
+                    let surface = texel_surface(
+                        n,
+                        centers[i],
+                        distance,
+                        unpack_normal(texel[1]),
+                        thickness_scale,
+                    );
+                    TexelRegion::Plane {
+                        point: centers[i] * distance,
+                        outward: -surface.visible_normal,
+                        far,
+                    }
+                };
+                out.push((region, near, far));
+            }
+        }
+        out
+    }
+}
+
 impl PackedField {
     /// Checks and packs a light field, building its pyramids.
     pub fn new(field: &LightField<'_>, options: &FieldOptions) -> Result<Self, UploadError> {
@@ -366,7 +412,17 @@ impl PackedField {
             let side = (n >> level) as usize;
             total += probes * side * side;
         }
-        let mut pyramid = vec![[0.0f32; 2]; total];
+        let mut pyramid = vec![[0u32; 4]; total];
+        let corner_dirs: Vec<Vec3> = (0..(n + 1) * (n + 1))
+            .map(|i| {
+                let step = 2.0 / n as f32;
+                let q = glam::Vec2::new(
+                    -1.0 + (i % (n + 1)) as f32 * step,
+                    -1.0 + (i / (n + 1)) as f32 * step,
+                );
+                probe_octa::decode(q)
+            })
+            .collect();
         let mut texel_bounds = TexelBounds::new(n);
         for probe in 0..probes {
             let range = probe * per_probe..(probe + 1) * per_probe;
@@ -382,31 +438,12 @@ impl PackedField {
             for (i, out) in geometry[range].iter_mut().enumerate() {
                 *out = texel_bounds.packed[i];
             }
-            let near_map = OctaMap::from_interior(n, &texel_bounds.near).expect("sizes match");
-            let far_map = OctaMap::from_interior(n, &texel_bounds.far).expect("sizes match");
-            let near_pyramid = MinMaxPyramid::build(&near_map, FineRead::Nearest, level_count)
-                .expect("power of two");
-            let far_pyramid = MinMaxPyramid::build(&far_map, FineRead::Nearest, level_count)
-                .expect("power of two");
-            for (level, &offset) in level_offsets
-                .iter()
-                .enumerate()
-                .take(level_count as usize)
-                .skip(1)
-            {
+            let regions = texel_bounds.regions(&layout, &centers, sky, thickness);
+            crate::pyramid::build(n, level_count, &regions, &corner_dirs, |level, records| {
                 let side = (n >> level) as usize;
-                let start = offset as usize + probe * side * side;
-                let mins = near_pyramid.level(level).expect("level built");
-                let maxs = far_pyramid.level(level).expect("level built");
-                for (k, out) in pyramid[start..start + side * side].iter_mut().enumerate() {
-                    let lo = mins[k].x;
-                    let hi = maxs[k].y;
-                    *out = [
-                        lo - lo.abs() * PYRAMID_MARGIN,
-                        hi + hi.abs() * PYRAMID_MARGIN,
-                    ];
-                }
-            }
+                let start = level_offsets[level as usize] as usize + probe * side * side;
+                pyramid[start..start + side * side].copy_from_slice(records);
+            });
         }
         Ok(Self {
             resolution: n,
@@ -444,6 +481,7 @@ pub(crate) struct PackedSelection {
     pub words: Vec<u32>,
     pub svo_nodes: u32,
     pub svo_leaves: u32,
+    pub svo_blocks: u32,
     pub kd_nodes: u32,
     pub kd_count: u32,
     pub neighbour_table: u32,
@@ -488,6 +526,7 @@ impl PackedSelection {
             words: Vec::new(),
             svo_nodes: 0,
             svo_leaves: 0,
+            svo_blocks: 0,
             kd_nodes: 0,
             kd_count: 0,
             neighbour_table: 0,
@@ -510,30 +549,54 @@ impl PackedSelection {
                 packed.svo = *svo.header();
                 let nodes = svo.nodes();
                 let leaves = svo.leaves();
-                for word in nodes {
-                    let bad = if word & SVO_LEAF_BIT != 0 {
+                let blocks = svo.blocks();
+                let bits = svo.header().packed_bits;
+                let bad_node = |word: u32| -> bool {
+                    if word & SVO_LEAF_BIT != 0 {
                         (word & !SVO_LEAF_BIT) as usize >= leaves.len()
+                    } else if word & SVO_PACKED_BIT != 0 {
+                        // A block of 8 payload indices of `bits` bits each.
+                        if bits != 8 && bits != 16 {
+                            return true;
+                        }
+                        let per = (32 / bits) as usize;
+                        let first = (word & !SVO_PACKED_BIT) as usize * (8 / per);
+                        let Some(block) = blocks.get(first..first + 8 / per) else {
+                            return true;
+                        };
+                        (0..8).any(|c| {
+                            let w = block[c / per];
+                            let id =
+                                (w >> (bits as usize * (c % per))) & ((1u64 << bits) - 1) as u32;
+                            id as usize >= leaves.len()
+                        })
                     } else {
-                        *word as usize + 8 > nodes.len()
-                    };
-                    if bad {
-                        return Err(UploadError::ProbeCountMismatch {
-                            selection: "sparse voxel octree (a node points past the tree)",
-                            expected: nodes.len(),
-                            actual: *word as usize,
-                        });
+                        word as usize + 8 > nodes.len()
                     }
+                };
+                if let Some(&word) = nodes.iter().find(|&&w| bad_node(w)) {
+                    return Err(UploadError::ProbeCountMismatch {
+                        selection: "sparse voxel octree (a node points past the tree)",
+                        expected: nodes.len(),
+                        actual: word as usize,
+                    });
                 }
                 for leaf in leaves {
                     for &probe in leaf {
                         check_probe("sparse voxel octree", probe, probe_count)?;
                     }
                 }
-                check_addressable("selection", nodes.len() as u64 + 4 * leaves.len() as u64, 4)?;
+                check_addressable(
+                    "selection",
+                    nodes.len() as u64 + 4 * leaves.len() as u64 + blocks.len() as u64,
+                    4,
+                )?;
                 packed.svo_nodes = 0;
                 packed.words.extend_from_slice(nodes);
                 packed.svo_leaves = packed.words.len() as u32;
                 packed.words.extend(leaves.iter().flatten());
+                packed.svo_blocks = packed.words.len() as u32;
+                packed.words.extend_from_slice(blocks);
             }
             ProbeSelection::Voronoi {
                 nearest,
@@ -723,7 +786,7 @@ impl PackedIrradiance {
     }
 }
 
-/// The trace pass's uniform block (240 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
+/// The trace pass's uniform block (256 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(crate) struct TraceParams {
@@ -747,11 +810,12 @@ pub(crate) struct TraceParams {
     pub svo: SvoHeader,
     pub svo_nodes: u32,
     pub svo_leaves: u32,
+    pub svo_blocks: u32,
     pub kd_nodes: u32,
     pub kd_count: u32,
     pub neighbour_table: u32,
     pub neighbour_resolution: u32,
-    pub pad1: [u32; 2],
+    pub pad1: u32,
 }
 
 /// The diffuse pass's uniform block (112 bytes). WGSL mirror `DiffuseParams` in
@@ -838,11 +902,12 @@ pub(crate) fn trace_params(
         svo: selection.svo,
         svo_nodes: selection.svo_nodes,
         svo_leaves: selection.svo_leaves,
+        svo_blocks: selection.svo_blocks,
         kd_nodes: selection.kd_nodes,
         kd_count: selection.kd_count,
         neighbour_table: selection.neighbour_table,
         neighbour_resolution: selection.neighbour_resolution,
-        pad1: [0; 2],
+        pad1: 0,
     })
 }
 

@@ -12,9 +12,7 @@ use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
     TraceSummary,
 };
-use support::{
-    Geometry, accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays,
-};
+use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
 
 /// A quad as two triangles, wound so that its normal points along `facing`.
 fn quad(out: &mut Vec<Triangle>, c: [Vec3; 4], facing: Vec3, material: u32) {
@@ -249,7 +247,7 @@ fn hand_off_past_an_occluder() {
     let neighbours = VoronoiNeighbours::bake(&tets, 16).unwrap();
     let nearest = NearestProbe::new(&positions);
     let svo = SparseVoxelOctree::build(
-        &Geometry(&scene),
+        &scene,
         &positions,
         &SvoOptions {
             max_depth: 5,

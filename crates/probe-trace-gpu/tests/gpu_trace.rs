@@ -15,8 +15,7 @@ use probe_trace_gpu::{
     RayStatus, ShadingPoint, TraceError, TraceMethod, TraceOptions, TraceRay, TraceSummary,
 };
 use support::{
-    Geometry, LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays,
-    to_trace_rays,
+    LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
 };
 
 /// Compares GPU and CPU results: statuses agree for ≥ 99.9 % of rays, and where both hit,
@@ -82,7 +81,7 @@ fn gpu_matches_cpu_for_every_selector_and_method() {
     let neighbours = VoronoiNeighbours::bake(&tets, 16).unwrap();
     let nearest = NearestProbe::new(&positions);
     let svo = SparseVoxelOctree::build(
-        &Geometry(&scene),
+        &scene,
         &positions,
         &SvoOptions {
             max_depth: 6,

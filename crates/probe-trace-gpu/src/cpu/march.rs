@@ -4,6 +4,7 @@
 
 use glam::{UVec2, Vec2, Vec3};
 
+use super::profile::{FetchKind, FetchLog};
 use crate::packed::{METHOD_HIZ, PackedField, SIGN_BIT, TraceParams, padded_index};
 use crate::surface::{texel_center, texel_surface, unpack_normal};
 
@@ -59,8 +60,8 @@ impl Outcome {
     }
 }
 
-/// The probe-local view of one ray.
-pub(crate) struct ProbeRay<'a> {
+/// The probe-local view of one ray; `L` records where fetches go (`()` records nothing).
+pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     pub field: &'a PackedField,
     pub params: &'a TraceParams,
     pub probe: u32,
@@ -72,6 +73,12 @@ pub(crate) struct ProbeRay<'a> {
     pub t_min: f32,
     /// Texel fetches so far.
     pub fetches: u32,
+    /// The fetch recorder.
+    pub log: L,
+    /// Where the march is, in full-resolution texels along this probe's path (for the log).
+    pub path_position: f32,
+    /// The hi-Z level the previous segment's march ended at (the next starts there).
+    pub carry_level: u32,
 }
 
 /// `signNotZero` with the `+` side for 0 and −0 (as `probe_octa::sign_not_zero`).
@@ -210,6 +217,85 @@ fn t_of(seg: &Segment, sigma: f32) -> f32 {
     seg.t0 + (seg.t1 - seg.t0) * lambda
 }
 
+/// A pyramid cell's bounding plane: points with `normal · p < offset` (relative to the probe)
+/// pass ([`crate::pyramid`]).
+struct Plane {
+    normal: Vec3,
+    offset: f32,
+}
+
+impl Plane {
+    #[inline]
+    fn unpack(packed_normal: u32, offset: u32) -> Plane {
+        Plane {
+            normal: unpack_normal(packed_normal),
+            offset: f32::from_bits(offset),
+        }
+    }
+}
+
+/// Where the march may go on from inside `cell` of `level` (entered at σ = `sigma`, left at
+/// `exit`) when the ray stays in the cell's pass region up to ray parameter `t_pass`: the
+/// full-resolution texel holding σ(`t_pass`) less a thousandth of a texel, and the σ where the
+/// line enters it — or `None` if that is no further on. The texels skipped lie wholly before
+/// `t_pass`, so their fine tests would all have passed; the texel returned is then tested over
+/// the same interval the full march would give it.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn skip_to(
+    seg: &Segment,
+    t_pass: f32,
+    cell: UVec2,
+    level: u32,
+    c0: Vec2,
+    delta: Vec2,
+    sigma: f32,
+    exit: f32,
+) -> Option<(UVec2, f32)> {
+    let s = sigma_of(seg, t_pass) - 1e-3 / delta.length();
+    if s <= sigma {
+        return None;
+    }
+    let p = c0 + delta * s;
+    let size = 1i32 << level;
+    let (lo_x, lo_y) = (cell.x as i32 * size, cell.y as i32 * size);
+    let target = UVec2::new(
+        entered_index(p.x, delta.x).clamp(lo_x, lo_x + size - 1) as u32,
+        entered_index(p.y, delta.y).clamp(lo_y, lo_y + size - 1) as u32,
+    );
+    let entry = entry_sigma(target, c0, delta);
+    (entry > sigma && entry < exit).then_some((target, entry))
+}
+
+/// Inverse of [`t_of`]: σ along a segment's 2-D line of ray parameter `t`.
+#[inline]
+fn sigma_of(seg: &Segment, t: f32) -> f32 {
+    if t <= seg.t0 || seg.t1 <= seg.t0 {
+        return 0.0;
+    }
+    if t >= seg.t1 {
+        return 1.0;
+    }
+    let lambda = (t - seg.t0) / (seg.t1 - seg.t0);
+    lambda * seg.l1 / ((1.0 - lambda) * seg.l0 + lambda * seg.l1)
+}
+
+/// σ where the line enters full-resolution `cell` (the later of its x and y entries): the
+/// same float expression as the exit of the cell before it in [`exit_sigmas`].
+#[inline]
+fn entry_sigma(cell: UVec2, c0: Vec2, delta: Vec2) -> f32 {
+    let axis = |i: u32, c: f32, dc: f32| -> f32 {
+        if dc > 0.0 {
+            (i as f32 * 1.0 - c) / dc
+        } else if dc < 0.0 {
+            ((i + 1) as f32 * 1.0 - c) / dc
+        } else {
+            f32::NEG_INFINITY
+        }
+    };
+    axis(cell.x, c0.x, delta.x).max(axis(cell.y, c0.y, delta.y))
+}
+
 /// The full-resolution cell where the line starts: the one containing `c0`, or on a cell
 /// boundary the one the line enters.
 #[inline]
@@ -289,22 +375,54 @@ fn advance(
     true
 }
 
-impl ProbeRay<'_> {
+impl<L: FetchLog> ProbeRay<'_, L> {
     /// Radial distance of the ray point at `t`.
     #[inline]
     fn radius(&self, t: f32) -> f32 {
         (self.origin + self.direction * t).length()
     }
 
-    /// `(min, max)` of pyramid level `level ≥ 1` at `cell` (one fetch).
+    /// The record of pyramid level `level ≥ 1` at `cell` (one fetch): min near and max far bits,
+    /// packed bounding-plane normal, plane offset bits ([`crate::pyramid`]).
     #[inline]
-    fn pyramid(&mut self, level: u32, cell: UVec2) -> [f32; 2] {
+    fn pyramid(&mut self, level: u32, cell: UVec2) -> [u32; 4] {
         self.fetches += 1;
         let side = self.field.resolution >> level;
         let index = self.field.level_offsets[level as usize] as usize
             + (self.probe as usize * side as usize + cell.y as usize) * side as usize
             + cell.x as usize;
         self.field.pyramid[index]
+    }
+
+    /// Whether the ray over `[ta, tb]` lies in front of a pyramid cell's bounding plane.
+    #[inline]
+    fn in_front_of(&self, plane: &Plane, ta: f32, tb: f32) -> bool {
+        let base = plane.normal.dot(self.origin);
+        let slope = plane.normal.dot(self.direction);
+        base + ta * slope < plane.offset && base + tb * slope < plane.offset
+    }
+
+    /// The end of the part of `[ta, tb]` from `ta` on that lies in a pyramid cell's pass
+    /// region (nearer than its minimum `lo`, or in front of its plane); `ta` if `ta` itself is
+    /// outside it.
+    fn pass_prefix(&self, lo: f32, plane: &Plane, ta: f32, tb: f32) -> f32 {
+        let base = plane.normal.dot(self.origin);
+        let slope = plane.normal.dot(self.direction);
+        let mut t = ta;
+        if base + ta * slope < plane.offset {
+            t = if slope > 0.0 {
+                (plane.offset - base) / slope
+            } else {
+                tb
+            };
+        }
+        if self.radius(ta) < lo {
+            // Where the radius grows back to `lo`: the larger root of |o + t·d| = lo.
+            let b = self.origin.dot(self.direction);
+            let q = self.origin.dot(self.origin) - lo * lo;
+            t = t.max(-b + (b * b - q).max(0.0).sqrt());
+        }
+        t.min(tb)
     }
 
     /// The fine test of full-resolution `cell` over `[ta, tb]` (one fetch).
@@ -318,6 +436,13 @@ impl ProbeRay<'_> {
     /// UNKNOWN) or the surface faces away from the ray (back-face rejection, UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
+        let (outcome, kind) = self.fine_test_kind(cell, ta, tb);
+        self.log.fetch(kind, 0, self.path_position);
+        outcome
+    }
+
+    /// [`Self::fine_test`] and which of its rules decided.
+    fn fine_test_kind(&mut self, cell: UVec2, ta: f32, tb: f32) -> (Outcome, FetchKind) {
         self.fetches += 1;
         let n = self.field.resolution;
         let texel = self.field.geometry[padded_index(n, self.probe, cell.x, cell.y)];
@@ -325,17 +450,17 @@ impl ProbeRay<'_> {
         let nearer_edge = texel[3] & SIGN_BIT != 0;
         let distance = f32::from_bits(texel[0] & !SIGN_BIT);
         if distance >= self.params.sky_distance && !nearer_edge {
-            return Outcome::CONTINUE;
+            return (Outcome::CONTINUE, FetchKind::FineNear);
         }
         let near = f32::from_bits(texel[2]);
         let far = f32::from_bits(texel[3] & !SIGN_BIT);
         let ra = self.radius(ta);
         let rb = self.radius(tb);
         if ra.max(rb) < near {
-            return Outcome::CONTINUE;
+            return (Outcome::CONTINUE, FetchKind::FineNear);
         }
         if ra > far || nearer_edge {
-            return Outcome::unknown(ta);
+            return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         let normal = unpack_normal(texel[1]);
         let center = probe_octa::decode(texel_center(n, cell.x, cell.y));
@@ -349,32 +474,35 @@ impl ProbeRay<'_> {
             // hidden, unless the entry lies nearer than the whole patch (the plane is only
             // trusted inside the texel's depth range).
             return if ra >= near {
-                Outcome::unknown(ta)
+                (Outcome::unknown(ta), FetchKind::FineUnknown)
             } else {
-                Outcome::CONTINUE
+                (Outcome::CONTINUE, FetchKind::FinePlane)
             };
         }
         if sa >= 0.0 && sb >= 0.0 {
-            return Outcome::CONTINUE;
+            return (Outcome::CONTINUE, FetchKind::FinePlane);
         }
         if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
             // Within the thickness behind the plane and moving out of it: the ray leaves the
             // surface it starts on. Or the ray starts behind this plane (on a neighbouring
             // face at a convex edge): it cannot hit the plane from behind.
-            return Outcome::CONTINUE;
+            return (Outcome::CONTINUE, FetchKind::FineLeaving);
         }
         if farther_edge
             || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0)
         {
-            return Outcome::unknown(ta);
+            return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         let t = if sa <= 0.0 { ta } else { (ta - sa / k).min(tb) };
-        Outcome {
-            code: HIT,
-            t,
-            cell,
-            normal: texel[1],
-        }
+        (
+            Outcome {
+                code: HIT,
+                t,
+                cell,
+                normal: texel[1],
+            },
+            FetchKind::FineHit,
+        )
     }
 
     /// Marches one segment; HIT, UNKNOWN, or CONTINUE when the probe saw the ray pass in front
@@ -385,12 +513,12 @@ impl ProbeRay<'_> {
         let c0 = ((seg.q0 + Vec2::ONE) * (0.5 * nf)).clamp(Vec2::ZERO, Vec2::splat(nf));
         let c1 = ((seg.q1 + Vec2::ONE) * (0.5 * nf)).clamp(Vec2::ZERO, Vec2::splat(nf));
         let delta = c1 - c0;
-        if seg.l0 <= 0.0 || seg.l1 <= 0.0 || delta.dot(delta) < 1e-12 {
+        let start = self.path_position;
+        let outcome = if seg.l0 <= 0.0 || seg.l1 <= 0.0 || delta.dot(delta) < 1e-12 {
             // A single octahedral point (a ray through or from the probe centre).
             let cell = start_cell((c0 + c1) * 0.5, Vec2::ZERO, n);
-            return self.fine_test(cell, seg.t0, seg.t1);
-        }
-        if self.params.method == METHOD_HIZ || self.params.coarse_level == 0 {
+            self.fine_test(cell, seg.t0, seg.t1)
+        } else if self.params.method == METHOD_HIZ || self.params.coarse_level == 0 {
             let top = if self.params.method == METHOD_HIZ {
                 self.params.top_level
             } else {
@@ -399,14 +527,30 @@ impl ProbeRay<'_> {
             self.march_hiz(seg, c0, delta, top)
         } else {
             self.march_two_level(seg, c0, delta, self.params.coarse_level)
+        };
+        if L::ENABLED && outcome.code == CONTINUE {
+            self.path_position = start + delta.length();
+        }
+        outcome
+    }
+
+    /// Records where the march is (σ along a segment starting at `start` texels).
+    #[inline]
+    fn at(&mut self, start: f32, sigma: f32, delta: Vec2) {
+        if L::ENABLED {
+            self.path_position = start + sigma * delta.length();
         }
     }
 
     /// Hi-Z: up a level on entering a new parent cell after a cell is passed, down where the
-    /// cell's bounds may hold the ray.
+    /// cell's bounds may hold the ray, skipping straight to where the ray leaves the cell's
+    /// pass region on the way down.
     fn march_hiz(&mut self, seg: &Segment, c0: Vec2, delta: Vec2, top: u32) -> Outcome {
         let n = self.field.resolution;
-        let mut level = 0u32;
+        let start = self.path_position;
+        // Start at the level the previous segment of this probe's trace ended at (0 for the
+        // first): the ray crosses an octant boundary in free flight.
+        let mut level = self.carry_level.min(top);
         let mut cursor = start_cell(c0, delta, n);
         let mut sigma = 0.0f32;
         let mut ta = seg.t0;
@@ -415,17 +559,41 @@ impl ProbeRay<'_> {
             let (sx, sy) = exit_sigmas(cell, level, c0, delta);
             let exit = sx.min(sy).max(sigma);
             let tb = t_of(seg, exit.min(1.0));
+            self.at(start, sigma, delta);
             if level > 0 {
-                let [lo, hi] = self.pyramid(level, cell);
+                let [lo, hi, packed_normal, offset] = self.pyramid(level, cell);
+                let (lo, hi) = (f32::from_bits(lo), f32::from_bits(hi));
                 let ra = self.radius(ta);
                 let rb = self.radius(tb);
-                if ra.max(rb) >= lo {
+                let plane = Plane::unpack(packed_normal, offset);
+                if ra.max(rb) >= lo && !self.in_front_of(&plane, ta, tb) {
                     if ra > hi {
+                        self.log
+                            .fetch(FetchKind::PyramidUnknown, level, self.path_position);
                         return Outcome::unknown(ta);
+                    }
+                    self.log
+                        .fetch(FetchKind::PyramidDescend, level, self.path_position);
+                    // Every texel the ray crosses before it leaves the cell's pass region
+                    // would pass its fine test: go on from the texel where it leaves.
+                    let t_pass = self.pass_prefix(lo, &plane, ta, tb);
+                    if t_pass > ta {
+                        let skip = skip_to(seg, t_pass, cell, level, c0, delta, sigma, exit);
+                        if let Some((target, entry)) = skip {
+                            cursor = target;
+                            sigma = entry;
+                            ta = t_of(seg, sigma);
+                            // The ray is about to reach a surface: go down faster.
+                            if level > 2 {
+                                level -= 1;
+                            }
+                        }
                     }
                     level -= 1;
                     continue;
                 }
+                self.log
+                    .fetch(FetchKind::PyramidPass, level, self.path_position);
             } else {
                 let outcome = self.fine_test(cursor, ta, tb);
                 if outcome.code != CONTINUE {
@@ -433,6 +601,7 @@ impl ProbeRay<'_> {
                 }
             }
             if exit >= 1.0 || !advance(&mut cursor, cell, level, (sx, sy), exit, c0, delta, n) {
+                self.carry_level = level;
                 return Outcome::CONTINUE;
             }
             sigma = exit;
@@ -450,6 +619,7 @@ impl ProbeRay<'_> {
     /// cells the ray may reach a surface in.
     fn march_two_level(&mut self, seg: &Segment, c0: Vec2, delta: Vec2, coarse: u32) -> Outcome {
         let n = self.field.resolution;
+        let start = self.path_position;
         let mut cursor = start_cell(c0, delta, n);
         let mut sigma = 0.0f32;
         let mut ta = seg.t0;
@@ -460,14 +630,18 @@ impl ProbeRay<'_> {
             let (sx, sy) = exit_sigmas(cell, coarse, c0, delta);
             let exit = sx.min(sy).max(sigma);
             let tb = t_of(seg, exit.min(1.0));
-            let [lo, _] = self.pyramid(coarse, cell);
+            self.at(start, sigma, delta);
+            let lo = f32::from_bits(self.pyramid(coarse, cell)[0]);
             if self.radius(ta).max(self.radius(tb)) >= lo {
+                self.log
+                    .fetch(FetchKind::PyramidDescend, coarse, self.path_position);
                 // Fine march from the cursor to the coarse cell's exit.
                 while steps < self.params.max_steps {
                     steps += 1;
                     let (fx, fy) = exit_sigmas(cursor, 0, c0, delta);
                     let fexit = fx.min(fy).max(sigma);
                     let ftb = t_of(seg, fexit.min(1.0));
+                    self.at(start, sigma, delta);
                     let outcome = self.fine_test(cursor, ta, ftb);
                     if outcome.code != CONTINUE {
                         return outcome;
@@ -485,6 +659,9 @@ impl ProbeRay<'_> {
                         continue 'coarse;
                     }
                 }
+            } else {
+                self.log
+                    .fetch(FetchKind::PyramidPass, coarse, self.path_position);
             }
             if exit >= 1.0 || !advance(&mut cursor, cell, coarse, (sx, sy), exit, c0, delta, n) {
                 return Outcome::CONTINUE;

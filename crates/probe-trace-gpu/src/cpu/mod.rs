@@ -3,6 +3,7 @@
 
 mod diffuse;
 pub(crate) mod march;
+pub(crate) mod profile;
 pub(crate) mod select;
 
 use std::time::Instant;
@@ -21,6 +22,8 @@ use crate::ray::{
     TraceRay,
 };
 use march::{CONTINUE, HIT, MISS, ProbeRay, Segment, UNKNOWN, split_segments};
+pub use profile::{FetchKind, FetchPhase, FetchProfile, PHASE_WINDOW_TEXELS, PROFILE_LEVELS};
+use profile::{FetchLog, RayObserver};
 use select::Selector;
 
 /// Results of a trace call, with its timing.
@@ -105,7 +108,9 @@ impl CpuTracer {
         };
         let params = trace_params(field, selection, options)?;
         let rays = prepare_rays(rays)?;
-        let records = parallel_map(&rays, |ray| trace_ray(field, selection, &params, ray));
+        let records = parallel_map(&rays, |ray| {
+            trace_ray(field, selection, &params, ray, &mut ())
+        });
         Ok(TraceOutput {
             results: records.into_iter().map(RayResult::from).collect(),
             timing: Timing {
@@ -113,6 +118,52 @@ impl CpuTracer {
                 gpu: None,
             },
         })
+    }
+
+    /// Traces `rays` as [`Self::trace`] does and returns where their texel fetches went
+    /// ([`FetchProfile`]): a diagnostic for choosing options and for profiling the methods.
+    ///
+    /// # Errors
+    /// As [`Self::trace`].
+    pub fn profile_fetches(
+        &self,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<FetchProfile, TraceError> {
+        let (Some(field), Some(selection)) = (&self.field, &self.selection) else {
+            return Err(TraceError::NotUploaded {
+                what: "light field",
+                call: "upload",
+            });
+        };
+        let params = trace_params(field, selection, options)?;
+        let rays = prepare_rays(rays)?;
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let chunk = rays.len().div_ceil(threads).max(1);
+        let parts: Vec<FetchProfile> = std::thread::scope(|scope| {
+            let handles: Vec<_> = rays
+                .chunks(chunk)
+                .map(|part| {
+                    let (field, selection, params) = (field, selection, &params);
+                    scope.spawn(move || {
+                        let mut profile = FetchProfile::default();
+                        for ray in part {
+                            trace_ray(field, selection, params, ray, &mut profile);
+                        }
+                        profile
+                    })
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_default())
+                .collect()
+        });
+        let mut total = FetchProfile::default();
+        for part in &parts {
+            total.merge(part);
+        }
+        Ok(total)
     }
 
     /// Shades `points` diffusely from the uploaded irradiance probes.
@@ -179,15 +230,18 @@ struct ProbeAnswer {
     cell: UVec2,
     normal: u32,
     fetches: u32,
+    /// Texels along the probe's path where the answer was reached (recorded traces only).
+    end_position: f32,
 }
 
 /// Traces the ray through one probe from `t_start` (seed 003 Alg. 3 on the probe's segments).
-fn trace_probe(
+fn trace_probe<L: FetchLog>(
     field: &PackedField,
     params: &TraceParams,
     probe: u32,
     ray: &TraceRay,
     t_start: f32,
+    log: L,
 ) -> ProbeAnswer {
     let origin = Vec3::from(ray.origin) - field.position(probe);
     let direction = Vec3::from(ray.direction);
@@ -202,6 +256,7 @@ fn trace_probe(
         cell: UVec2::ZERO,
         normal: 0,
         fetches: 0,
+        end_position: 0.0,
     };
     if origin.length() >= sky {
         return answer;
@@ -223,6 +278,9 @@ fn trace_probe(
         direction,
         t_min: ray.t_min,
         fetches: 0,
+        log,
+        path_position: 0.0,
+        carry_level: 0,
     };
     for segment in &segments[..count] {
         let outcome = probe_ray.march_segment(segment);
@@ -233,11 +291,13 @@ fn trace_probe(
                 cell: outcome.cell,
                 normal: outcome.normal,
                 fetches: 0,
+                end_position: 0.0,
             };
             break;
         }
     }
     answer.fetches = probe_ray.fetches;
+    answer.end_position = probe_ray.path_position;
     answer
 }
 
@@ -259,12 +319,14 @@ fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     UVec2::new(x, y)
 }
 
-/// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order).
-pub(crate) fn trace_ray(
+/// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order), reporting
+/// to `observer` (`&mut ()` for none).
+pub(crate) fn trace_ray<O: RayObserver>(
     field: &PackedField,
     selection: &PackedSelection,
     params: &TraceParams,
     ray: &TraceRay,
+    observer: &mut O,
 ) -> RayRecord {
     let selector = Selector {
         params,
@@ -290,7 +352,11 @@ pub(crate) fn trace_ray(
         if fallback == NO_PROBE {
             fallback = probe;
         }
-        let answer = trace_probe(field, params, probe, ray, t);
+        let answer = match observer.fetch_log() {
+            Some(log) => trace_probe(field, params, probe, ray, t, log),
+            None => trace_probe(field, params, probe, ray, t, ()),
+        };
+        observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         fetches += answer.fetches;
         if answer.code == HIT || answer.code == MISS {
             let (cell, normal) = if answer.code == HIT {
@@ -307,6 +373,7 @@ pub(crate) fn trace_ray(
             record.probe = probe;
             record.probes_tried = tried;
             record.texel_fetches = fetches;
+            observer.ray_done(record.status, fetches);
             return record;
         }
         if answer.t > t {
@@ -327,5 +394,6 @@ pub(crate) fn trace_ray(
         record.probe = fallback;
     }
     record.texel_fetches = fetches;
+    observer.ray_done(record.status, fetches);
     record
 }

@@ -2,7 +2,7 @@
 //! selector reproduces the `probe_index::ProbeSelector` of its structure (tests check it).
 
 use glam::{UVec3, Vec3};
-use probe_index::{NO_PROBE, SVO_LEAF_BIT};
+use probe_index::{NO_PROBE, SVO_LEAF_BIT, SVO_PACKED_BIT};
 
 use crate::packed::{PackedSelection, SELECT_GRID, SELECT_SVO, TraceParams};
 
@@ -110,16 +110,12 @@ impl Selector<'_> {
         let mut lo = origin;
         let mut index = self.params.svo_nodes as usize;
         let mut out = Candidates::default();
+        let mut payload = u32::MAX;
         for _ in 0..=32 {
             let word = words[index];
             if word & SVO_LEAF_BIT != 0 {
-                let leaf = self.params.svo_leaves as usize + 4 * (word & !SVO_LEAF_BIT) as usize;
-                for &probe in &words[leaf..leaf + 4] {
-                    if probe != failed {
-                        out.push(probe);
-                    }
-                }
-                return out;
+                payload = word & !SVO_LEAF_BIT;
+                break;
             }
             size *= 0.5;
             let mid = lo + Vec3::splat(size);
@@ -136,7 +132,24 @@ impl Selector<'_> {
                 child |= 4;
                 lo.z = mid.z;
             }
+            if word & SVO_PACKED_BIT != 0 {
+                // Eight leaf children as `packed_bits`-bit payload indices.
+                let bits = h.packed_bits as usize;
+                let per = 32 / bits;
+                let block = (word & !SVO_PACKED_BIT) as usize * (8 / per);
+                let w = words[self.params.svo_blocks as usize + block + child / per];
+                payload = (w >> (bits * (child % per))) & ((1u64 << bits) - 1) as u32;
+                break;
+            }
             index = self.params.svo_nodes as usize + word as usize + child;
+        }
+        if payload != u32::MAX {
+            let leaf = self.params.svo_leaves as usize + 4 * payload as usize;
+            for &probe in &words[leaf..leaf + 4] {
+                if probe != failed {
+                    out.push(probe);
+                }
+            }
         }
         out
     }
@@ -263,6 +276,7 @@ mod tests {
             svo: selection.svo,
             svo_nodes: selection.svo_nodes,
             svo_leaves: selection.svo_leaves,
+            svo_blocks: selection.svo_blocks,
             kd_nodes: selection.kd_nodes,
             kd_count: selection.kd_count,
             neighbour_table: selection.neighbour_table,

@@ -382,8 +382,8 @@ impl GpuTracer {
         let selection = PackedSelection::new(selection, meta.probe_count as usize)?;
         let positions = self.storage_buffer("positions", bytemuck::cast_slice(&meta.positions))?;
         let geometry = self.storage_buffer("geometry", bytemuck::cast_slice(&meta.geometry))?;
-        let pyramid_data: &[[f32; 2]] = if meta.pyramid.is_empty() {
-            &[[0.0; 2]]
+        let pyramid_data: &[[u32; 4]] = if meta.pyramid.is_empty() {
+            &[[0; 4]]
         } else {
             &meta.pyramid
         };

@@ -113,6 +113,10 @@ fn shared_structs_match_the_wgsl_layout() {
             ("origin", offset_of!(probe_index::SvoHeader, origin)),
             ("size", offset_of!(probe_index::SvoHeader, size)),
             ("depth", offset_of!(probe_index::SvoHeader, depth)),
+            (
+                "packed_bits",
+                offset_of!(probe_index::SvoHeader, packed_bits),
+            ),
         ],
     );
     check(
@@ -141,6 +145,7 @@ fn shared_structs_match_the_wgsl_layout() {
             ("svo", offset_of!(TraceParams, svo)),
             ("svo_nodes", offset_of!(TraceParams, svo_nodes)),
             ("svo_leaves", offset_of!(TraceParams, svo_leaves)),
+            ("svo_blocks", offset_of!(TraceParams, svo_blocks)),
             ("kd_nodes", offset_of!(TraceParams, kd_nodes)),
             ("kd_count", offset_of!(TraceParams, kd_count)),
             ("neighbour_table", offset_of!(TraceParams, neighbour_table)),

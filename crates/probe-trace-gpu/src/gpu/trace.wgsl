@@ -10,20 +10,25 @@ const METHOD_HIZ: u32 = 0u;
 const SELECT_GRID: u32 = 0u;
 const SELECT_SVO: u32 = 1u;
 const SVO_LEAF_BIT: u32 = 0x80000000u;
+const SVO_PACKED_BIT: u32 = 0x40000000u;
 const NO_EXIT: f32 = 4.0;
 const SIGN_BIT: u32 = 0x80000000u;
 
-// probe_index::SvoHeader (32 bytes).
+// probe_index::SvoHeader (48 bytes).
 struct SvoHeader {
     origin: vec3<f32>,
     size: f32,
     depth: u32,
     node_count: u32,
     leaf_count: u32,
-    pad: u32,
+    block_count: u32,
+    packed_bits: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
-// src/packed.rs TraceParams (240 bytes).
+// src/packed.rs TraceParams (256 bytes).
 struct TraceParams {
     resolution: u32,
     probe_count: u32,
@@ -46,12 +51,12 @@ struct TraceParams {
     svo: SvoHeader,
     svo_nodes: u32,
     svo_leaves: u32,
+    svo_blocks: u32,
     kd_nodes: u32,
     kd_count: u32,
     neighbour_table: u32,
     neighbour_resolution: u32,
     pad2: u32,
-    pad3: u32,
 }
 
 // src/ray.rs TraceRay (32 bytes).
@@ -83,8 +88,9 @@ struct RayRecord {
 // Per padded texel: radial distance bits (sign: farther edge), packed normal, near bits, far
 // bits (sign: nearer edge). See src/packed.rs TexelBounds.
 @group(0) @binding(4) var<storage, read> geometry: array<vec4<u32>>;
-// Levels 1.. of the (min near, max far) pyramids.
-@group(0) @binding(5) var<storage, read> pyramid: array<vec2<f32>>;
+// Levels 1.. of the pyramids: min near bits, max far bits, packed outward normal of the
+// bounding plane, plane offset bits (src/pyramid.rs).
+@group(0) @binding(5) var<storage, read> pyramid: array<vec4<u32>>;
 // 3 floats per padded texel.
 @group(0) @binding(6) var<storage, read> radiance: array<f32>;
 // Octree nodes and payloads, or k-d tree nodes and the neighbour table.
@@ -96,6 +102,8 @@ var<private> ray_o: vec3<f32>;
 var<private> ray_d: vec3<f32>;
 var<private> ray_t_min: f32;
 var<private> fetches: u32;
+// The hi-Z level the previous segment's march ended at.
+var<private> carry_level: u32;
 
 struct Segment {
     t0: f32,
@@ -299,17 +307,93 @@ fn advance(cursor: ptr<function, vec2<u32>>, cell: vec2<u32>, level: u32, s: vec
     return true;
 }
 
+fn sigma_of(seg: Segment, t: f32) -> f32 {
+    if (t <= seg.t0 || seg.t1 <= seg.t0) {
+        return 0.0;
+    }
+    if (t >= seg.t1) {
+        return 1.0;
+    }
+    let lambda = (t - seg.t0) / (seg.t1 - seg.t0);
+    return lambda * seg.l1 / ((1.0 - lambda) * seg.l0 + lambda * seg.l1);
+}
+
+fn entry_axis(i: u32, c: f32, dc: f32) -> f32 {
+    if (dc > 0.0) {
+        return (f32(i) * 1.0 - c) / dc;
+    }
+    if (dc < 0.0) {
+        return (f32(i + 1u) * 1.0 - c) / dc;
+    }
+    return bitcast<f32>(0xff800000u);
+}
+
+struct Skip {
+    ok: bool,
+    to_cell: vec2<u32>,
+    entry: f32,
+}
+
+// src/cpu/march.rs skip_to.
+fn skip_to(seg: Segment, t_pass: f32, cell: vec2<u32>, level: u32, c0: vec2<f32>, delta: vec2<f32>, sigma: f32, exit: f32) -> Skip {
+    var out = Skip(false, vec2<u32>(0u), 0.0);
+    let s = sigma_of(seg, t_pass) - 1e-3 / length(delta);
+    if (s <= sigma) {
+        return out;
+    }
+    let p = c0 + delta * s;
+    let size = i32(1u << level);
+    let lo = vec2<i32>(cell) * size;
+    let to_cell = vec2<u32>(
+        u32(clamp(entered_index(p.x, delta.x), lo.x, lo.x + size - 1)),
+        u32(clamp(entered_index(p.y, delta.y), lo.y, lo.y + size - 1)),
+    );
+    let entry = max(entry_axis(to_cell.x, c0.x, delta.x), entry_axis(to_cell.y, c0.y, delta.y));
+    if (entry > sigma && entry < exit) {
+        out = Skip(true, to_cell, entry);
+    }
+    return out;
+}
+
 // ---- tests ----
 
 fn radius(t: f32) -> f32 {
     return length(ray_o + ray_d * t);
 }
 
-fn pyramid_texel(level: u32, cell: vec2<u32>) -> vec2<f32> {
+fn pyramid_texel(level: u32, cell: vec2<u32>) -> vec4<u32> {
     fetches += 1u;
     let side = params.resolution >> level;
     let index = params.level_offsets[level / 4u][level % 4u] + (cur_probe * side + cell.y) * side + cell.x;
     return pyramid[index];
+}
+
+// Whether the ray over [ta, tb] lies in front of a pyramid cell's bounding plane (unit normal
+// n, offset c).
+fn in_front_of(n: vec3<f32>, c: f32, ta: f32, tb: f32) -> bool {
+    let base = dot(n, ray_o);
+    let slope = dot(n, ray_d);
+    return base + ta * slope < c && base + tb * slope < c;
+}
+
+// src/cpu/march.rs pass_prefix.
+fn pass_prefix(lo: f32, n: vec3<f32>, c: f32, ta: f32, tb: f32) -> f32 {
+    let base = dot(n, ray_o);
+    let slope = dot(n, ray_d);
+    var t = ta;
+    if (base + ta * slope < c) {
+        if (slope > 0.0) {
+            t = (c - base) / slope;
+        } else {
+            t = tb;
+        }
+    }
+    if (radius(ta) < lo) {
+        let b = dot(ray_o, ray_d);
+        let q = dot(ray_o, ray_o) - lo * lo;
+        t = max(t, -b + sqrt(max(b * b - q, 0.0)));
+    }
+    return min(t, tb);
 }
 
 fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
@@ -365,7 +449,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
 
 fn march_hiz(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, top: u32) -> Outcome {
     let n = params.resolution;
-    var level = 0u;
+    var level = min(carry_level, top);
     var cursor = start_cell(c0, delta, n);
     var sigma = 0.0;
     var ta = seg.t0;
@@ -375,12 +459,27 @@ fn march_hiz(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, top: u32) -> Outcome
         let exit = max(min(s.x, s.y), sigma);
         let tb = t_of(seg, min(exit, 1.0));
         if (level > 0u) {
-            let bounds = pyramid_texel(level, cell);
+            let record = pyramid_texel(level, cell);
+            let lo = bitcast<f32>(record.x);
             let ra = radius(ta);
             let rb = radius(tb);
-            if (max(ra, rb) >= bounds.x) {
-                if (ra > bounds.y) {
+            let plane_n = unpack_normal(record.z);
+            let plane_c = bitcast<f32>(record.w);
+            if (max(ra, rb) >= lo && !in_front_of(plane_n, plane_c, ta, tb)) {
+                if (ra > bitcast<f32>(record.y)) {
                     return outcome_unknown(ta);
+                }
+                let t_pass = pass_prefix(lo, plane_n, plane_c, ta, tb);
+                if (t_pass > ta) {
+                    let skip = skip_to(seg, t_pass, cell, level, c0, delta, sigma, exit);
+                    if (skip.ok) {
+                        cursor = skip.to_cell;
+                        sigma = skip.entry;
+                        ta = t_of(seg, sigma);
+                        if (level > 2u) {
+                            level -= 1u;
+                        }
+                    }
                 }
                 level -= 1u;
                 continue;
@@ -392,6 +491,7 @@ fn march_hiz(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, top: u32) -> Outcome
             }
         }
         if (exit >= 1.0 || !advance(&cursor, cell, level, s, exit, c0, delta, n)) {
+            carry_level = level;
             return outcome_continue();
         }
         sigma = exit;
@@ -419,9 +519,9 @@ fn march_two_level(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, coarse: u32) -
         let s = exit_sigmas(cell, coarse, c0, delta);
         let exit = max(min(s.x, s.y), sigma);
         let tb = t_of(seg, min(exit, 1.0));
-        let bounds = pyramid_texel(coarse, cell);
+        let lo = bitcast<f32>(pyramid_texel(coarse, cell).x);
         var left_cell = false;
-        if (max(radius(ta), radius(tb)) >= bounds.x) {
+        if (max(radius(ta), radius(tb)) >= lo) {
             loop {
                 if (steps >= params.max_steps) {
                     break;
@@ -495,6 +595,7 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32) -> ProbeAnswer {
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
     ray_t_min = ray.t_min;
+    carry_level = 0u;
     let sky = params.sky_distance * 0.999;
     let b = dot(ray_o, ray_d);
     let closest = ray_o - ray_d * b;
@@ -589,17 +690,12 @@ fn select_svo(position: vec3<f32>, failed: u32) -> Candidates {
     var index = params.svo_nodes;
     var out: Candidates;
     out.len = 0u;
+    var payload = 0xffffffffu;
     for (var i = 0u; i <= 32u; i++) {
         let word = words[index];
         if ((word & SVO_LEAF_BIT) != 0u) {
-            let leaf = params.svo_leaves + 4u * (word & ~SVO_LEAF_BIT);
-            for (var k = 0u; k < 4u; k++) {
-                let probe = words[leaf + k];
-                if (probe != failed) {
-                    push_candidate(&out, probe);
-                }
-            }
-            return out;
+            payload = word & ~SVO_LEAF_BIT;
+            break;
         }
         size *= 0.5;
         let mid = lo + vec3<f32>(size);
@@ -616,7 +712,24 @@ fn select_svo(position: vec3<f32>, failed: u32) -> Candidates {
             child |= 4u;
             lo.z = mid.z;
         }
+        if ((word & SVO_PACKED_BIT) != 0u) {
+            let bits = h.packed_bits;
+            let per = 32u / bits;
+            let block = (word & ~SVO_PACKED_BIT) * (8u / per);
+            let w = words[params.svo_blocks + block + child / per];
+            payload = (w >> (bits * (child % per))) & ((1u << bits) - 1u);
+            break;
+        }
         index = params.svo_nodes + word + child;
+    }
+    if (payload != 0xffffffffu) {
+        let leaf = params.svo_leaves + 4u * payload;
+        for (var k = 0u; k < 4u; k++) {
+            let probe = words[leaf + k];
+            if (probe != failed) {
+                push_candidate(&out, probe);
+            }
+        }
     }
     return out;
 }

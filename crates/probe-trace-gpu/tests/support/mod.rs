@@ -1,9 +1,9 @@
-//! Test support: a "mini capture" that bakes probes by casting one BVH ray per texel centre
-//! (until `probe-capture` lands), ray sets, BVH references and accuracy figures.
+//! Test support: bakes (probe-capture's real baker, and a "mini capture" with analytic-style
+//! maps: one BVH ray per texel centre, radiance = a closure), probe placements (probe-place),
+//! ray sets, BVH references and accuracy figures.
 #![allow(dead_code)]
 
 use glam::{Vec2, Vec3};
-use probe_index::{RayHit, SceneGeometry};
 use probe_octa::{OctaLayout, OctaMap};
 use probe_scene::{Hit, Ray, Scene};
 use probe_trace_gpu::{
@@ -117,6 +117,111 @@ pub fn mini_capture(
     bake
 }
 
+/// Sky distance used with probe-capture bakes: its misses store `MISS_DISTANCE` (1e9 m), and
+/// anything at or beyond this counts as sky.
+pub fn capture_sky_distance(scene: &Scene) -> f32 {
+    100.0 * scene.bounds().size().length().max(1.0)
+}
+
+/// The probe-capture settings of the bakes here: `resolution`², one radiance sample per
+/// texel, direct light only (the tracer's figures are about where rays end; the references
+/// shade with the same [`capture_shader`]).
+pub fn capture_settings(resolution: u32) -> probe_capture::BakeSettings {
+    probe_capture::BakeSettings {
+        resolution,
+        samples_per_texel: 1,
+        bounces: 0,
+        pyramid_levels: 1,
+        ..probe_capture::BakeSettings::default()
+    }
+}
+
+/// The shader of [`capture_settings`] bakes (direct light, the scene's default environment).
+pub fn capture_shader(scene: &Scene) -> probe_capture::Shader<'_> {
+    probe_capture::Shader::new(scene, probe_capture::Environment::for_scene(scene), 0)
+        .expect("the default environment is valid")
+}
+
+/// Bakes `positions` with probe-capture ([`capture_settings`]) into the tracer's input
+/// layout. With `PROBE_BAKE_CACHE=DIR` set, bakes are saved under `DIR` (keyed by scene,
+/// positions and resolution) and loaded back on later runs.
+pub fn capture_bake(scene: &Scene, positions: &[Vec3], resolution: u32) -> Bake {
+    use std::hash::{Hash, Hasher};
+    let settings = capture_settings(resolution);
+    let cache = std::env::var_os("PROBE_BAKE_CACHE").map(|dir| {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        scene.content_hash().hash(&mut h);
+        resolution.hash(&mut h);
+        for p in positions {
+            p.to_array().map(f32::to_bits).hash(&mut h);
+        }
+        std::path::PathBuf::from(dir).join(format!(
+            "{}-{resolution}-{:016x}",
+            scene.name(),
+            h.finish()
+        ))
+    });
+    let loaded = cache
+        .as_ref()
+        .and_then(|dir| probe_capture::ProbeBake::load(dir, Some(scene)).ok())
+        .filter(|b| b.positions() == positions && b.settings() == &settings);
+    let baked = match loaded {
+        Some(b) => b,
+        None => {
+            let b = probe_capture::bake(scene, positions, &settings, &probe_capture::no_progress)
+                .expect("valid bake settings");
+            if let Some(dir) = &cache {
+                let _ = b.save(dir);
+            }
+            b
+        }
+    };
+    Bake {
+        resolution,
+        positions: positions.to_vec(),
+        distance: baked.distances().to_vec(),
+        normals: baked.normals().to_vec(),
+        radiance: baked.radiance().to_vec(),
+        sky_distance: capture_sky_distance(scene),
+    }
+}
+
+/// Probe-place's candidates for `scene`: `"sdf"` (skeleton of the distance field) or
+/// `"medial"` (shrinking-ball medial axis), with the crate's default parameters.
+pub fn placement(scene: &Scene, method: &str) -> Vec<Vec3> {
+    match method {
+        "sdf" => {
+            probe_place::sdf_candidates(scene, &probe_place::SdfParams::for_scene(scene))
+                .expect("SDF candidates")
+                .probes
+                .positions
+        }
+        "medial" => {
+            probe_place::medial_candidates(scene, &probe_place::MedialParams::for_scene(scene))
+                .expect("medial candidates")
+                .probes
+                .positions
+        }
+        other => panic!("unknown placement {other}"),
+    }
+}
+
+/// Mirror reflection rays (about the shading normal) of a `width × height` G-buffer from
+/// `camera`, as probe-capture's evaluation makes them.
+pub fn evaluation_rays(
+    scene: &Scene,
+    camera: &probe_scene::Camera,
+    width: u32,
+    height: u32,
+) -> Vec<Ray> {
+    let gbuffer = probe_capture::render_gbuffer(scene, camera, width, height).expect("size");
+    probe_capture::reflection_rays(&gbuffer, probe_capture::Reflection::Mirror, 1, 0)
+        .expect("one ray per pixel")
+        .iter()
+        .map(|r| r.ray())
+        .collect()
+}
+
 /// Base colour plus emission: tells surfaces apart, so radiance errors mean wrong surfaces.
 pub fn albedo_shade(scene: &Scene) -> impl Fn(&Hit, Vec3) -> Vec3 + Sync + '_ {
     move |hit: &Hit, _| {
@@ -211,28 +316,6 @@ impl LowRes {
             moments_resolution: 14,
             moments: &self.moments,
         }
-    }
-}
-
-/// `probe_index::SceneGeometry` for a `probe_scene::Scene` (for building octrees in tests).
-pub struct Geometry<'a>(pub &'a Scene);
-
-impl SceneGeometry for Geometry<'_> {
-    fn triangle_count(&self) -> usize {
-        self.0.triangles().len()
-    }
-
-    fn triangle(&self, index: usize) -> [Vec3; 3] {
-        self.0.triangles()[index].positions
-    }
-
-    fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
-        self.0
-            .closest_hit(&Ray { origin, direction }, max_distance)
-            .map(|h| RayHit {
-                distance: h.t,
-                normal: h.geometric_normal,
-            })
     }
 }
 
