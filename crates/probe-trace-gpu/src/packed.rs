@@ -142,6 +142,10 @@ pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
 /// reported as a hit (the ray is handed on). Texels seen more obliquely than [`COS_TRUSTED`]
 /// are flagged the same way.
 ///
+/// A sky texel with a surface neighbour (a silhouette against the sky) is always treated as
+/// having a **nearer** edge, as below: otherwise a ray meeting the surface's rim inside the
+/// sky texel's cone would be passed on to the sky as a miss.
+///
 /// With `FieldOptions::conservative_edges`, also: a texel with a **nearer** neighbour (a
 /// foreground edge may intrude into its cone) gets that neighbour's `near` and leaves
 /// undecided any ray that reaches it; farther-edge texels widen `far` to the neighbour's; and
@@ -240,7 +244,10 @@ impl TexelBounds {
                             if conservative {
                                 far = far.max(base_far[u]);
                             }
-                        } else if conservative {
+                        } else if conservative || is_sky[i] {
+                            // A sky texel beside a surface (its silhouette against the sky)
+                            // always: the surface may reach into its cone, and a ray crossing
+                            // it there must not be passed on as a miss.
                             nearer_edge = true;
                             near = near.min(base_near[u]);
                         }

@@ -111,7 +111,8 @@ fn best_plane(
             .iter()
             .map(|&(u, r)| r * n.dot(u))
             .fold(f32::INFINITY, f32::min);
-        if !(offset > 0.0) {
+        // Also skips NaN.
+        if offset.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             continue;
         }
         // Tightness: how close the plane comes to each constraint, on average (1: touching).

@@ -3,6 +3,7 @@
 //! the failure suite.
 
 pub mod demo;
+pub mod failures;
 pub mod pipeline;
 pub mod sweep;
 

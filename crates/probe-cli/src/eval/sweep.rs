@@ -20,6 +20,7 @@ use probe_place::{
 use probe_scene::Scene;
 use serde::{Deserialize, Serialize};
 
+use super::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_suite};
 use super::pipeline::{
     Device, EvalView, ProbeMemory, Selection, TraceMetrics, Tracer, ViewSettings, bake_for_view,
     build_index, detect_grid, trace_view,
@@ -58,6 +59,12 @@ pub struct EvalConfig {
     pub placements: Vec<String>,
     /// Fail instead of using the CPU twin when no GPU adapter exists.
     pub require_gpu: bool,
+    /// Run the failure suite too and add its section to the report.
+    pub failure_suite: bool,
+    /// The shared scenes directory the failure suite's file cases read (default: the one
+    /// `probe_testdata` locates, `../shared/scenes` beside the checkout; cases needing it are
+    /// skipped when it is missing).
+    pub shared_scenes: Option<PathBuf>,
     /// The scenes.
     pub scenes: Vec<SceneConfig>,
 }
@@ -142,6 +149,8 @@ impl Default for EvalConfig {
             .map(String::from)
             .to_vec(),
             require_gpu: false,
+            failure_suite: true,
+            shared_scenes: None,
             scenes: Vec::new(),
         }
     }
@@ -415,6 +424,8 @@ pub struct SweepReport {
     pub files: Vec<PathBuf>,
     /// Seconds for the whole sweep.
     pub seconds: f64,
+    /// The failure suite's cases, when the configuration asks for them.
+    pub failures: Option<FailureReport>,
 }
 
 /// The headline figures, computed from the records.
@@ -699,6 +710,20 @@ pub fn run_sweep(
             }
         }
     }
+    let failures = if config.failure_suite {
+        log("failure suite");
+        let mut options = FailureOptions::new(config.require_gpu);
+        let dir = config
+            .shared_scenes
+            .clone()
+            .unwrap_or_else(probe_testdata::scenes_dir);
+        if dir.is_dir() {
+            options.shared_scenes = Some(SharedScenes::in_dir(&dir));
+        }
+        Some(run_failure_suite(&options)?)
+    } else {
+        None
+    };
     let headline = headline(&records);
     let mut report = SweepReport {
         config: config.clone(),
@@ -708,6 +733,7 @@ pub fn run_sweep(
         headline,
         files: Vec::new(),
         seconds: 0.0,
+        failures,
     };
     files.extend(write_charts(&report, out)?);
     files.push(write_optimiser_chart(out)?.0);
@@ -1137,5 +1163,8 @@ fn report_markdown(report: &SweepReport) -> String {
             "wall-clock on the CPU twin"
         }
     );
+    if let Some(failures) = &report.failures {
+        let _ = writeln!(text, "\n{}", failures.markdown());
+    }
     text
 }

@@ -441,7 +441,7 @@ impl Tetrahedralization {
         let mut visited = Visited::new(t);
         loop {
             let record = &self.records[t as usize];
-            let l = record.barycentric_of(p);
+            let l = self.local_barycentric(record, p);
             let mut faces = [0usize, 1, 2, 3];
             faces.sort_unstable_by(|&a, &b| l[a].total_cmp(&l[b]));
             let mut next = None;
@@ -467,13 +467,40 @@ impl Tetrahedralization {
                     return Ok(Location {
                         tetrahedron: t,
                         probes: record.vertices,
-                        weights: clamp_weights(l),
+                        weights: clamp_weights(self.exact_barycentric(record, p)),
                         outside_distance: 0.0,
                         steps: visited.len() as u32,
                     });
                 }
             }
         }
+    }
+
+    /// Barycentric coordinates of `p` from the stored rows applied to `p` minus the
+    /// tetrahedron's last vertex: as cheap as [`TetRecord::barycentric_of`], without its loss
+    /// of digits when the tetrahedron is tiny and far from the origin.
+    #[inline]
+    fn local_barycentric(&self, record: &TetRecord, p: Vec3) -> [f32; 4] {
+        let q = p - self.points[record.vertices[3] as usize];
+        let r = &record.barycentric;
+        let l0 = r[0][0] * q.x + r[0][1] * q.y + r[0][2] * q.z;
+        let l1 = r[1][0] * q.x + r[1][1] * q.y + r[1][2] * q.z;
+        let l2 = r[2][0] * q.x + r[2][1] * q.y + r[2][2] * q.z;
+        [l0, l1, l2, 1.0 - l0 - l1 - l2]
+    }
+
+    /// Barycentric coordinates of `p` in `record`'s tetrahedron computed in f64 relative to its
+    /// last vertex. The stored rows fold the translation into an f32 column, which loses
+    /// digits for tetrahedra much smaller than their distance from the origin (probes 1e-4 m
+    /// apart at 0.3 m gave weights off by 1e-3); the walk may use them, the answer may not.
+    fn exact_barycentric(&self, record: &TetRecord, p: Vec3) -> [f32; 4] {
+        let [a, b, c, d] = record.vertices.map(|v| self.points[v as usize].as_dvec3());
+        let m = glam::DMat3::from_cols(a - d, b - d, c - d);
+        if m.determinant() == 0.0 {
+            return record.barycentric_of(p);
+        }
+        let l = m.inverse() * (p.as_dvec3() - d);
+        [l.x, l.y, l.z, 1.0 - l.x - l.y - l.z].map(|x| x as f32)
     }
 
     /// Nearest hull face to an outside point, found among the hull faces `p` sees (they form a

@@ -431,9 +431,11 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     /// entering farther than `far` is hidden (UNKNOWN); past `near`, a texel with a nearer
     /// edge cannot place the ray (UNKNOWN); otherwise the texel's plane decides: entering
     /// behind it by more than the thickness is hidden, staying in front passes, moving out of
-    /// the thickness layer passes (a ray leaving the surface it starts on), and crossing into
-    /// it is a hit (unless the ray starts behind it), unless the texel has a farther edge (the crossing may lie beside the edge:
-    /// UNKNOWN) or the surface faces away from the ray (back-face rejection, UNKNOWN).
+    /// the thickness layer passes (a ray leaving the surface it starts on) if it lies within
+    /// the thickness measured along the normal (deeper it is hidden), and crossing into it is
+    /// a hit (unless the ray starts behind it), unless the texel has a farther edge (the
+    /// crossing may lie beside the edge: UNKNOWN) or the surface faces away from the ray
+    /// (back-face rejection, UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
         let (outcome, kind) = self.fine_test_kind(cell, ta, tb);
@@ -485,7 +487,12 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
             // Within the thickness behind the plane and moving out of it: the ray leaves the
             // surface it starts on. Or the ray starts behind this plane (on a neighbouring
-            // face at a convex edge): it cannot hit the plane from behind.
+            // face at a convex edge): it cannot hit the plane from behind. Either only within
+            // the thickness along the normal: deeper, the ray is behind the surface (on the
+            // far side of a wall), not on it.
+            if sa < -surface.plane_thickness {
+                return (Outcome::unknown(ta), FetchKind::FineUnknown);
+            }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);
         }
         if farther_edge

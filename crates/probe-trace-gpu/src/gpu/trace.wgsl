@@ -433,6 +433,9 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         return outcome_continue();
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
+        if (sa < -surface.plane_thickness) {
+            return outcome_unknown(ta);
+        }
         return outcome_continue();
     }
     if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
