@@ -52,7 +52,7 @@ use probe_place::{
 };
 use probe_scene::{Camera, Hit, Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{
-    DiffuseOptions, FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection,
+    DiffuseOptions, FieldOptions, Interpolation, LightField, ProbeSelection,
     RayResult, RayStatus, ShadingPoint, TraceOptions, TraceRay,
 };
 use serde::Serialize;
@@ -786,18 +786,8 @@ fn trace_rays(
     rays: &[TraceRay],
     options: &TraceOptions,
 ) -> Result<Vec<RayResult>, EvalError> {
-    let field = light_field(baked);
-    let field_options = FieldOptions::default();
-    Ok(match device {
-        Device::Gpu(tracer, _) => {
-            tracer.upload(&field, selection, &field_options)?;
-            tracer.trace(rays, options)?.results
-        }
-        Device::Cpu(tracer) => {
-            tracer.upload(&field, selection, &field_options)?;
-            tracer.trace(rays, options)?.results
-        }
-    })
+    device.upload(&light_field(baked), selection)?;
+    Ok(device.trace(rays, options)?.results)
 }
 
 /// A view's rays traced through probes: agreement, image error, finiteness.
@@ -1071,26 +1061,6 @@ fn channel_mean(v: Vec3) -> f64 {
     f64::from(v.x + v.y + v.z) / 3.0
 }
 
-fn upload_irradiance(
-    device: &mut Device,
-    baked: &ProbeBake,
-    interpolation: &Interpolation<'_>,
-) -> Result<(), EvalError> {
-    let settings = baked.settings();
-    let field = IrradianceField {
-        positions: baked.positions(),
-        irradiance_resolution: settings.irradiance_resolution,
-        irradiance: baked.irradiance(),
-        moments_resolution: settings.moments_resolution,
-        moments: baked.moments(),
-    };
-    match device {
-        Device::Gpu(tracer, _) => tracer.upload_irradiance(&field, interpolation)?,
-        Device::Cpu(tracer) => tracer.upload_irradiance(&field, interpolation)?,
-    }
-    Ok(())
-}
-
 fn shade(
     device: &mut Device,
     points: &[ShadingPoint],
@@ -1100,10 +1070,7 @@ fn shade(
         visibility,
         ..DiffuseOptions::default()
     };
-    let out = match device {
-        Device::Gpu(tracer, _) => tracer.shade_diffuse(points, &options)?,
-        Device::Cpu(tracer) => tracer.shade_diffuse(points, &options)?,
-    };
+    let out = device.shade_diffuse(points, &options)?;
     Ok(out.results.iter().map(|r| r.irradiance).collect())
 }
 
@@ -1153,7 +1120,7 @@ fn leak(r: &mut Recorder, cx: &mut Context<'_>, name: &str) -> Result<(), CaseEr
     ] {
         r.methods.push(format!("{label} irradiance-only"));
         r.methods.push(format!("{label} + visibility"));
-        upload_irradiance(cx.device, &baked, &interpolation)?;
+        cx.device.upload_irradiance(&baked, &interpolation)?;
         let leaky_dark = shade(cx.device, &dark, false)?;
         let visible_dark = shade(cx.device, &dark, true)?;
         let visible_lit = shade(cx.device, &lit, true)?;
@@ -2225,7 +2192,7 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
     r.refused(
         "NaN shading point → diffuse",
         || -> Result<Vec<Vec3>, CaseError> {
-            upload_irradiance(cx.device, &baked, &Interpolation::Grid(cage))?;
+            cx.device.upload_irradiance(&baked, &Interpolation::Grid(cage))?;
             Ok(shade(cx.device, &[ShadingPoint::new(nan, Vec3::Y)], true)?)
         },
     );

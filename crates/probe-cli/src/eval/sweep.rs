@@ -204,12 +204,13 @@ impl EvalConfig {
     }
 }
 
-/// Grid dimensions of about `count` probes over `bounds`, following its aspect (each axis ≥ 1).
+/// Grid dimensions of about `count` probes over `bounds`, following its aspect (each axis ≥ 2:
+/// a single layer has no 8-probe cage and no tetrahedralization).
 pub fn grid_dims_for_count(size: Vec3, count: u32) -> [u32; 3] {
     let size = size.max(Vec3::splat(1e-6));
     let volume = size.x * size.y * size.z;
     let k = (count as f32 / volume).cbrt();
-    let mut best = [1u32; 3];
+    let mut best = [2u32; 3];
     let mut best_error = f32::INFINITY;
     // Search around the ideal per-axis counts for the product nearest the target.
     let ideal = size * k;
@@ -217,9 +218,9 @@ pub fn grid_dims_for_count(size: Vec3, count: u32) -> [u32; 3] {
         for dy in -1..=1 {
             for dz in -1..=1 {
                 let dims = [
-                    (ideal.x.round() as i32 + dx).max(1) as u32,
-                    (ideal.y.round() as i32 + dy).max(1) as u32,
-                    (ideal.z.round() as i32 + dz).max(1) as u32,
+                    (ideal.x.round() as i32 + dx).max(2) as u32,
+                    (ideal.y.round() as i32 + dy).max(2) as u32,
+                    (ideal.z.round() as i32 + dz).max(2) as u32,
                 ];
                 let product = (dims[0] * dims[1] * dims[2]) as f32;
                 let aspect_error: f32 = (0..3)
@@ -426,6 +427,8 @@ pub struct SweepReport {
     pub seconds: f64,
     /// The failure suite's cases, when the configuration asks for them.
     pub failures: Option<FailureReport>,
+    /// Placements that could not be measured, with the reason.
+    pub skipped: Vec<String>,
 }
 
 /// The headline figures, computed from the records.
@@ -502,7 +505,7 @@ fn best_per_placement<'r>(records: &'r [SweepRecord], scene: &str) -> Vec<&'r Sw
     let mut best: BTreeMap<(&str, &str), &SweepRecord> = BTreeMap::new();
     for r in records.iter().filter(|r| r.scene == scene) {
         let key = (r.camera.as_str(), r.placement.as_str());
-        if best.get(&key).is_none_or(|b| r.trace.mse < b.trace.mse) {
+        if best.get(&key).is_none_or(|b| r.trace.mse_tonemapped < b.trace.mse_tonemapped) {
             best.insert(key, r);
         }
     }
@@ -525,19 +528,19 @@ fn headline(records: &[SweepRecord]) -> Headline {
             .collect();
         let best_grid = grids
             .iter()
-            .min_by(|a, b| a.trace.mse.total_cmp(&b.trace.mse));
+            .min_by(|a, b| a.trace.mse_tonemapped.total_cmp(&b.trace.mse_tonemapped));
         let matched = best_grid.and_then(|g| {
             autos
                 .iter()
-                .filter(|a| a.trace.mse <= g.trace.mse)
+                .filter(|a| a.trace.mse_tonemapped <= g.trace.mse_tonemapped)
                 .min_by_key(|a| a.probes)
                 .map(|a| MatchFigure {
                     grid: g.placement.clone(),
                     grid_probes: g.probes,
-                    grid_mse: g.trace.mse,
+                    grid_mse: g.trace.mse_tonemapped,
                     placement: a.placement.clone(),
                     probes: a.probes,
-                    mse: a.trace.mse,
+                    mse: a.trace.mse_tonemapped,
                     ratio: a.probes as f64 / g.probes as f64,
                 })
         });
@@ -549,16 +552,16 @@ fn headline(records: &[SweepRecord]) -> Headline {
             let candidate = autos
                 .iter()
                 .filter(|a| a.probes <= g.probes && a.probes * 10 >= g.probes * 8)
-                .min_by(|a, b| a.trace.mse.total_cmp(&b.trace.mse));
+                .min_by(|a, b| a.trace.mse_tonemapped.total_cmp(&b.trace.mse_tonemapped));
             if let Some(a) = candidate {
                 equal.push(EqualCountFigure {
                     grid: g.placement.clone(),
                     probes: g.probes,
-                    grid_mse: g.trace.mse,
+                    grid_mse: g.trace.mse_tonemapped,
                     placement: a.placement.clone(),
                     placement_probes: a.probes,
-                    mse: a.trace.mse,
-                    ratio: a.trace.mse / g.trace.mse,
+                    mse: a.trace.mse_tonemapped,
+                    ratio: a.trace.mse_tonemapped / g.trace.mse_tonemapped,
                 });
             }
         }
@@ -613,6 +616,7 @@ pub fn run_sweep(
     }
     log(&format!("tracer device: {}", device.describe()));
     let mut records = Vec::new();
+    let mut skipped = Vec::new();
     let mut reference_seconds = BTreeMap::new();
     let mut files = Vec::new();
     for scene_config in &config.scenes {
@@ -664,13 +668,28 @@ pub fn run_sweep(
                 let grid = placed
                     .full_grid
                     .and_then(|_| detect_grid(baked.positions()));
-                let index = build_index(
+                let index = match build_index(
                     &scene,
                     baked.positions(),
                     config.svo_depth,
                     grid,
                     config.view.seed,
-                )?;
+                ) {
+                    Ok(index) => index,
+                    // A placement the index refuses (fewer than 4 probes, all coplanar) is
+                    // reported, not fatal to the sweep.
+                    Err(error) => {
+                        let line = format!(
+                            "{} / {} / {}: not indexed: {error}",
+                            scene.name(),
+                            view.camera.name,
+                            spec.name
+                        );
+                        log(&line);
+                        skipped.push(line);
+                        continue;
+                    }
+                };
                 let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
                 for &selection in &selections {
                     for &tracer in &tracers {
@@ -734,6 +753,7 @@ pub fn run_sweep(
         files: Vec::new(),
         seconds: 0.0,
         failures,
+        skipped,
     };
     files.extend(write_charts(&report, out)?);
     files.push(write_optimiser_chart(out)?.0);
@@ -759,13 +779,13 @@ pub fn run_sweep(
 
 fn to_csv(records: &[SweepRecord]) -> String {
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e}",
             r.scene,
             r.camera,
             r.placement,
@@ -796,7 +816,8 @@ fn to_csv(records: &[SweepRecord]) -> String {
             t.ray_mse,
             t.mse,
             t.relative_mse,
-            t.psnr
+            t.psnr,
+            t.mse_tonemapped
         );
     }
     text
@@ -873,7 +894,7 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
                 "error_vs_time",
                 format!("{scene}: glossy error against trace time (every tracer and selection)"),
                 "trace time (ms)",
-                family_series(&|r| Some(Point::new(r.trace.trace_ms, r.trace.mse)), true),
+                family_series(&|r| Some(Point::new(r.trace.trace_ms, r.trace.mse_tonemapped)), true),
                 true,
             ),
             (
@@ -884,7 +905,7 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
                     &|r| {
                         Some(Point::labelled(
                             r.probes as f64,
-                            r.trace.mse,
+                            r.trace.mse_tonemapped,
                             r.placement.clone(),
                         ))
                     },
@@ -896,7 +917,7 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
                 "error_vs_memory",
                 format!("{scene}: glossy error against memory (probe textures + selection)"),
                 "memory (MB)",
-                family_series(&|r| Some(Point::new(r.total_mb, r.trace.mse)), false),
+                family_series(&|r| Some(Point::new(r.total_mb, r.trace.mse_tonemapped)), false),
                 true,
             ),
         ];
@@ -904,7 +925,7 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
             if series.is_empty() {
                 continue;
             }
-            let mut spec = ChartSpec::new(title, x_label, "MSE of the glossy component");
+            let mut spec = ChartSpec::new(title, x_label, "MSE of the glossy component (tone-mapped x/(1+x))");
             spec.x_log = true;
             spec.y_log = true;
             spec.pareto_front = pareto;
@@ -1013,7 +1034,7 @@ fn report_markdown(report: &SweepReport) -> String {
     let _ = writeln!(text, "## Headline figures\n");
     let _ = writeln!(
         text,
-        "| scene | best grid | its MSE | fewest automatic probes matching it | ratio (goal ≤ 0.4) |"
+        "| scene | best grid | its MSE (tone-mapped) | fewest automatic probes matching it | ratio (goal ≤ 0.4) |"
     );
     let _ = writeln!(text, "|---|---|---:|---|---:|");
     for (scene, figure) in &h.probes_to_match_best_grid {
@@ -1035,7 +1056,7 @@ fn report_markdown(report: &SweepReport) -> String {
     }
     let _ = writeln!(
         text,
-        "\n| scene | grid | probes | grid MSE | automatic placement (≤ same count) | its MSE | ratio (goal ≤ 0.25) |"
+        "\n| scene | grid | probes | grid MSE (tone-mapped) | automatic placement (≤ same count) | its MSE | ratio (goal ≤ 0.25) |"
     );
     let _ = writeln!(text, "|---|---|---:|---:|---|---:|---:|");
     for (scene, figures) in &h.mse_at_equal_count {
@@ -1066,13 +1087,13 @@ fn report_markdown(report: &SweepReport) -> String {
     );
     let _ = writeln!(
         text,
-        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE |"
+        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE | MSE (tone-mapped) | status agreement |"
     );
-    let _ = writeln!(text, "|---|---:|---|---|---|---:|---:|---:|---:|");
+    let _ = writeln!(text, "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|");
     for r in &report.records {
         let _ = writeln!(
             text,
-            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} |",
+            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} | {:.3e} | {:.1} % |",
             r.scene,
             r.probes,
             r.placement,
@@ -1081,7 +1102,9 @@ fn report_markdown(report: &SweepReport) -> String {
             r.trace.trace_ms,
             r.trace.fetches_per_ray,
             r.trace.probes_per_ray,
-            r.trace.mse
+            r.trace.mse,
+            r.trace.mse_tonemapped,
+            100.0 * r.trace.status_agreement
         );
     }
     // Seed 000 Table 5.2: memory per placement.
@@ -1163,6 +1186,12 @@ fn report_markdown(report: &SweepReport) -> String {
             "wall-clock on the CPU twin"
         }
     );
+    if !report.skipped.is_empty() {
+        let _ = writeln!(text, "\nNot measured:\n");
+        for line in &report.skipped {
+            let _ = writeln!(text, "- {line}");
+        }
+    }
     if let Some(failures) = &report.failures {
         let _ = writeln!(text, "\n{}", failures.markdown());
     }
