@@ -101,17 +101,17 @@ impl DemoReport {
         );
         let _ = writeln!(
             text,
-            "| placement | probes | coverage | bake (s) | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | PSNR (dB) |"
+            "| placement | probes | coverage | bake (s) | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | MSE (tone-mapped) | PSNR (dB) |"
         );
         let _ = writeln!(
             text,
-            "|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|"
+            "|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|"
         );
         for row in &self.rows {
             let t = &row.trace;
             let _ = writeln!(
                 text,
-                "| {} | {} | {:.1} % | {:.2} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.2} |",
+                "| {} | {} | {:.1} % | {:.2} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.3e} | {:.2} |",
                 row.placement,
                 row.probes,
                 100.0 * row.coverage,
@@ -123,6 +123,7 @@ impl DemoReport {
                 t.probes_per_ray,
                 100.0 * t.status_agreement,
                 t.mse,
+                t.mse_tonemapped,
                 t.psnr
             );
         }

@@ -52,8 +52,8 @@ use probe_place::{
 };
 use probe_scene::{Camera, Hit, Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{
-    DiffuseOptions, FieldOptions, Interpolation, LightField, ProbeSelection,
-    RayResult, RayStatus, ShadingPoint, TraceOptions, TraceRay,
+    DiffuseOptions, FieldOptions, Interpolation, LightField, ProbeSelection, RayResult, RayStatus,
+    ShadingPoint, TraceOptions, TraceRay,
 };
 use serde::Serialize;
 
@@ -2192,7 +2192,8 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
     r.refused(
         "NaN shading point → diffuse",
         || -> Result<Vec<Vec3>, CaseError> {
-            cx.device.upload_irradiance(&baked, &Interpolation::Grid(cage))?;
+            cx.device
+                .upload_irradiance(&baked, &Interpolation::Grid(cage))?;
             Ok(shade(cx.device, &[ShadingPoint::new(nan, Vec3::Y)], true)?)
         },
     );

@@ -505,7 +505,10 @@ fn best_per_placement<'r>(records: &'r [SweepRecord], scene: &str) -> Vec<&'r Sw
     let mut best: BTreeMap<(&str, &str), &SweepRecord> = BTreeMap::new();
     for r in records.iter().filter(|r| r.scene == scene) {
         let key = (r.camera.as_str(), r.placement.as_str());
-        if best.get(&key).is_none_or(|b| r.trace.mse_tonemapped < b.trace.mse_tonemapped) {
+        if best
+            .get(&key)
+            .is_none_or(|b| r.trace.mse_tonemapped < b.trace.mse_tonemapped)
+        {
             best.insert(key, r);
         }
     }
@@ -525,6 +528,11 @@ fn headline(records: &[SweepRecord]) -> Headline {
         let autos: Vec<&&SweepRecord> = best
             .iter()
             .filter(|r| r.family != "grid" && r.family != "grid-relocated")
+            .collect();
+        // A view with no error at all (every pixel black in both images) ranks nothing.
+        let grids: Vec<&&SweepRecord> = grids
+            .into_iter()
+            .filter(|g| g.trace.mse_tonemapped > 0.0)
             .collect();
         let best_grid = grids
             .iter()
@@ -755,12 +763,15 @@ pub fn run_sweep(
         failures,
         skipped,
     };
-    files.extend(write_charts(&report, out)?);
-    files.push(write_optimiser_chart(out)?.0);
-    report.seconds = start.elapsed().as_secs_f64();
+    // The data first: a chart that fails must not lose the sweep.
     let csv = out.join("results.csv");
     write_atomic(&csv, to_csv(&report.records).as_bytes())?;
     files.push(csv);
+    let (charts, notes) = write_charts(&report, out)?;
+    files.extend(charts);
+    report.skipped.extend(notes);
+    files.push(write_optimiser_chart(out)?.0);
+    report.seconds = start.elapsed().as_secs_f64();
     let json = out.join("results.json");
     report.files = files.clone();
     write_atomic(
@@ -848,8 +859,15 @@ const FAMILIES: [&str; 9] = [
     "minimal@N",
 ];
 
-fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalError> {
+/// Writes the charts of every scene; returns the files and a note for each chart left out
+/// because none of its points can be drawn (every error 0 on the logarithmic axis: a view of
+/// unlit surfaces only, as `leak-closed`'s dark room).
+fn write_charts(
+    report: &SweepReport,
+    out: &Path,
+) -> Result<(Vec<PathBuf>, Vec<String>), EvalError> {
     let mut files = Vec::new();
+    let mut notes = Vec::new();
     let mut scenes: Vec<&str> = report.records.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     for scene in scenes {
@@ -894,7 +912,10 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
                 "error_vs_time",
                 format!("{scene}: glossy error against trace time (every tracer and selection)"),
                 "trace time (ms)",
-                family_series(&|r| Some(Point::new(r.trace.trace_ms, r.trace.mse_tonemapped)), true),
+                family_series(
+                    &|r| Some(Point::new(r.trace.trace_ms, r.trace.mse_tonemapped)),
+                    true,
+                ),
                 true,
             ),
             (
@@ -917,7 +938,10 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
                 "error_vs_memory",
                 format!("{scene}: glossy error against memory (probe textures + selection)"),
                 "memory (MB)",
-                family_series(&|r| Some(Point::new(r.total_mb, r.trace.mse_tonemapped)), false),
+                family_series(
+                    &|r| Some(Point::new(r.total_mb, r.trace.mse_tonemapped)),
+                    false,
+                ),
                 true,
             ),
         ];
@@ -925,19 +949,31 @@ fn write_charts(report: &SweepReport, out: &Path) -> Result<Vec<PathBuf>, EvalEr
             if series.is_empty() {
                 continue;
             }
-            let mut spec = ChartSpec::new(title, x_label, "MSE of the glossy component (tone-mapped x/(1+x))");
+            let mut spec = ChartSpec::new(
+                title,
+                x_label,
+                "MSE of the glossy component (tone-mapped x/(1+x))",
+            );
             spec.x_log = true;
             spec.y_log = true;
             spec.pareto_front = pareto;
             spec.series = series;
             let png = out.join(format!("{stem}_{}.png", slug(scene)));
             let svg = out.join(format!("{stem}_{}.svg", slug(scene)));
-            write_chart(&spec, &png, &svg)?;
-            files.push(png);
-            files.push(svg);
+            match write_chart(&spec, &png, &svg) {
+                Ok(_) => {
+                    files.push(png);
+                    files.push(svg);
+                }
+                Err(crate::chart::ChartError::NothingToDraw { dropped }) => notes.push(format!(
+                    "{scene}: chart {stem} not drawn: none of its {dropped} points is positive \
+                     (every error is 0: the view sees no lit surface)"
+                )),
+                Err(error) => return Err(error.into()),
+            }
         }
     }
-    Ok(files)
+    Ok((files, notes))
 }
 
 /// The chart of issue 4: on the built-in Cornell box, one probe under plain descent over the
