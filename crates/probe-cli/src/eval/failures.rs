@@ -24,7 +24,7 @@
 //! within a bound or a clear refusal. [`FailureReport::markdown`] writes the report section.
 //!
 //! Probes are baked at low resolution (32² by default) and images are small (96×64), so the
-//! whole suite runs in about a minute in the dev profile on two cores with lavapipe.
+//! whole suite runs in about 12 s in the dev profile on two cores with lavapipe (6 s in release).
 //!
 //! # Wrong answers
 //!
