@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use crate::delaunay::Tetrahedralization;
 use crate::edge_cast::{EdgeCastOptions, insert_edge_probes};
-use crate::error::IndexError;
+use crate::error::{DelaunayError, IndexError};
 use crate::geometry::SceneGeometry;
 use crate::nearest::NearestProbe;
 use crate::svo::{SparseVoxelOctree, SvoOptions, SvoStats};
@@ -40,12 +40,15 @@ impl Default for IndexOptions {
 pub struct ProbeIndex {
     /// Probe positions: the ones given, then any added by edge casts.
     pub probes: Vec<Vec3>,
-    /// Delaunay tetrahedralization of `probes`.
-    pub tetrahedralization: Tetrahedralization,
+    /// Delaunay tetrahedralization of `probes`; `None` when they span no volume (fewer than 4
+    /// distinct positions, or all on one plane or line: one probe per room is a placement a
+    /// scene may need). Then there are no Voronoi neighbours or edge casts either, and the
+    /// nearest-probe tree and the octree serve alone.
+    pub tetrahedralization: Option<Tetrahedralization>,
     /// Nearest-probe k-d tree over `probes`.
     pub nearest: NearestProbe,
-    /// Voronoi-sphere neighbour maps.
-    pub neighbours: VoronoiNeighbours,
+    /// Voronoi-sphere neighbour maps (with the tetrahedralization).
+    pub neighbours: Option<VoronoiNeighbours>,
     /// The sparse voxel octree, if asked for.
     pub svo: Option<SparseVoxelOctree>,
 }
@@ -73,6 +76,8 @@ pub struct IndexReport {
     pub neighbour_bytes: usize,
     /// Octree statistics (bytes in `bytes`), if built.
     pub svo: Option<SvoStats>,
+    /// Why there is no tetrahedralization (the probes span no volume), if there is none.
+    pub delaunay_skipped: Option<String>,
     /// Time of the first tetrahedralization.
     pub delaunay_time: Duration,
     /// Time of the edge casts, rebuild included.
@@ -100,31 +105,48 @@ impl ProbeIndex {
             ..IndexReport::default()
         };
         let t = Instant::now();
-        let mut tetrahedralization = Tetrahedralization::build(probes)?;
+        let mut tetrahedralization = match Tetrahedralization::build(probes) {
+            Ok(tetrahedralization) => Some(tetrahedralization),
+            Err(
+                error @ (DelaunayError::TooFewPoints { .. }
+                | DelaunayError::AllCollinear { .. }
+                | DelaunayError::AllCoplanar { .. }),
+            ) if !probes.is_empty() => {
+                report.delaunay_skipped = Some(error.to_string());
+                None
+            }
+            Err(error) => return Err(error.into()),
+        };
         report.delaunay_time = t.elapsed();
         let mut all = probes.to_vec();
-        if let Some(edge) = &options.edge_casts {
+        if let (Some(edge), Some(tets)) = (&options.edge_casts, &tetrahedralization) {
             let t = Instant::now();
-            let result = insert_edge_probes(&tetrahedralization, geometry, edge)?;
+            let result = insert_edge_probes(tets, geometry, edge)?;
             report.edge_cast_time = t.elapsed();
             report.probes_added = result.added;
             report.edge_rays = result.rays_cast;
             all = result.probes;
-            tetrahedralization = result.tetrahedralization;
+            tetrahedralization = Some(result.tetrahedralization);
         }
-        report.duplicates = tetrahedralization.duplicate_count();
-        report.tetrahedra = tetrahedralization.tetrahedra().len();
-        report.hull_faces = tetrahedralization.hull_faces().len();
-        report.tetrahedra_bytes = tetrahedralization.memory_bytes();
+        if let Some(tets) = &tetrahedralization {
+            report.duplicates = tets.duplicate_count();
+            report.tetrahedra = tets.tetrahedra().len();
+            report.hull_faces = tets.hull_faces().len();
+            report.tetrahedra_bytes = tets.memory_bytes();
+        }
         let t = Instant::now();
         let nearest = NearestProbe::new(&all);
         report.nearest_time = t.elapsed();
         report.nearest_bytes = nearest.memory_bytes();
         let t = Instant::now();
-        let neighbours =
-            VoronoiNeighbours::bake(&tetrahedralization, options.neighbour_resolution)?;
+        let neighbours = match &tetrahedralization {
+            Some(tets) => Some(VoronoiNeighbours::bake(tets, options.neighbour_resolution)?),
+            None => None,
+        };
         report.neighbour_time = t.elapsed();
-        report.neighbour_bytes = neighbours.memory_bytes();
+        report.neighbour_bytes = neighbours
+            .as_ref()
+            .map_or(0, VoronoiNeighbours::memory_bytes);
         let svo = match &options.svo {
             Some(svo_options) => {
                 let t = Instant::now();
@@ -147,13 +169,13 @@ impl ProbeIndex {
         ))
     }
 
-    /// Seed 000's Voronoi-based selector over this index.
-    pub fn voronoi_selector(&self) -> VoronoiSelector<'_> {
-        VoronoiSelector {
+    /// Seed 000's Voronoi-based selector over this index (`None` without a tetrahedralization).
+    pub fn voronoi_selector(&self) -> Option<VoronoiSelector<'_>> {
+        Some(VoronoiSelector {
             positions: &self.probes,
             nearest: &self.nearest,
-            neighbours: &self.neighbours,
-        }
+            neighbours: self.neighbours.as_ref()?,
+        })
     }
 }
 
@@ -168,15 +190,21 @@ impl fmt::Display for IndexReport {
             "probes: {} given, {} added by {} edge rays, {} duplicates merged",
             self.probes_given, self.probes_added, self.edge_rays, self.duplicates
         )?;
-        writeln!(
-            f,
-            "delaunay: {} tetrahedra, {} hull faces, {:.3} MiB, {:.3} s (+{:.3} s edge casts)",
-            self.tetrahedra,
-            self.hull_faces,
-            mib(self.tetrahedra_bytes),
-            self.delaunay_time.as_secs_f64(),
-            self.edge_cast_time.as_secs_f64()
-        )?;
+        match &self.delaunay_skipped {
+            Some(why) => writeln!(
+                f,
+                "delaunay: none ({why}); no Voronoi neighbours, the octree serves alone"
+            )?,
+            None => writeln!(
+                f,
+                "delaunay: {} tetrahedra, {} hull faces, {:.3} MiB, {:.3} s (+{:.3} s edge casts)",
+                self.tetrahedra,
+                self.hull_faces,
+                mib(self.tetrahedra_bytes),
+                self.delaunay_time.as_secs_f64(),
+                self.edge_cast_time.as_secs_f64()
+            )?,
+        }
         writeln!(
             f,
             "nearest-probe tree: {:.3} MiB, {:.3} s",

@@ -189,11 +189,16 @@ fn index_build_reports_every_structure() {
     assert!(report.probes_added > 0);
     assert_eq!(
         report.tetrahedra,
-        index.tetrahedralization.tetrahedra().len()
+        index
+            .tetrahedralization
+            .as_ref()
+            .unwrap()
+            .tetrahedra()
+            .len()
     );
     assert_eq!(
         report.tetrahedra_bytes,
-        index.tetrahedralization.memory_bytes()
+        index.tetrahedralization.as_ref().unwrap().memory_bytes()
     );
     assert_eq!(report.neighbour_bytes, index.probes.len() * 64 * 4 * 4);
     assert_eq!(report.nearest_bytes, index.probes.len() * 16);
@@ -210,20 +215,39 @@ fn index_build_reports_every_structure() {
     }
     // The Voronoi selector works over the index.
     use probe_index::{ProbeQuery, ProbeSelector};
-    let c = index.voronoi_selector().select(&ProbeQuery {
+    let c = index.voronoi_selector().unwrap().select(&ProbeQuery {
         position: Vec3::new(-1.4, 0.1, 0.1),
         direction: Vec3::Y,
         failed_probe: None,
     });
     assert_eq!(c.as_slice()[0], 0);
-    // Coplanar probes are refused with the stage named.
+    // Coplanar probes span no volume: no tetrahedralization, no Voronoi neighbours, the
+    // octree alone, and the report says why.
     let flat: Vec<Vec3> = (0..9)
         .map(|i| Vec3::new((i % 3) as f32, (i / 3) as f32, 0.0))
         .collect();
-    let e = ProbeIndex::build(&flat, &wall(), &IndexOptions::default()).unwrap_err();
+    let (index, report) = ProbeIndex::build(&flat, &wall(), &IndexOptions::default()).unwrap();
+    assert!(index.tetrahedralization.is_none() && index.neighbours.is_none());
+    assert!(index.voronoi_selector().is_none());
+    assert!(index.svo.is_some());
+    let why = report.delaunay_skipped.as_deref().unwrap();
+    assert!(
+        why.starts_with("all 9 distinct points are coplanar"),
+        "{why}"
+    );
+    assert!(
+        report
+            .to_string()
+            .contains("delaunay: none (all 9 distinct points are coplanar")
+    );
+    // Non-finite probes and an empty set are still refused, with the stage named.
+    let mut bad = flat.clone();
+    bad[4].x = f32::NAN;
+    let e = ProbeIndex::build(&bad, &wall(), &IndexOptions::default()).unwrap_err();
     assert!(
         e.to_string()
-            .starts_with("Delaunay tetrahedralization: all 9 distinct points are coplanar"),
+            .starts_with("Delaunay tetrahedralization: probe position 4 is not finite"),
         "{e}"
     );
+    assert!(ProbeIndex::build(&[], &wall(), &IndexOptions::default()).is_err());
 }

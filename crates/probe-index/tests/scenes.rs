@@ -143,7 +143,12 @@ fn full_index_on_the_cornell_box() {
         }),
     };
     let (index, report) = ProbeIndex::build(&probes, &scene, &options).unwrap();
-    index.tetrahedralization.validate().unwrap();
+    index
+        .tetrahedralization
+        .as_ref()
+        .unwrap()
+        .validate()
+        .unwrap();
     // The tall and short blocks stand between grid probes: some edges cross them.
     assert!(report.probes_added > 0, "{report}");
     let svo = index.svo.as_ref().unwrap();
@@ -156,7 +161,7 @@ fn full_index_on_the_cornell_box() {
         failed_probe: None,
     };
     assert!(!svo.select(&query).is_empty());
-    assert!(!index.voronoi_selector().select(&query).is_empty());
+    assert!(!index.voronoi_selector().unwrap().select(&query).is_empty());
     // Every probe the octree proposes there is visible from the query point's voxel centre or
     // near it: at least the first is visible from the point itself.
     let first = svo.select(&query).as_slice()[0];

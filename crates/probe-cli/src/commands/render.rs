@@ -164,7 +164,14 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             return Err(CliError::InvalidArgument {
                 parameter: "--select",
                 value: selection.name().into(),
-                reason: "this selection could not be built for the bake".into(),
+                reason: match selection {
+                    Selection::Voronoi => {
+                        "the bake's probes span no volume (fewer than 4, or all on a plane): \
+                         there are no Voronoi neighbours; use svo"
+                            .into()
+                    }
+                    _ => "this selection could not be built for the bake".into(),
+                },
             });
         };
         let tracer = match args.tracer {

@@ -223,6 +223,17 @@ pub struct BuiltIndex {
     pub seconds: f64,
 }
 
+impl BuiltIndex {
+    /// Seed 000's Voronoi selection over this index; `None` when the probes span no volume
+    /// (no tetrahedralization, so no neighbour maps).
+    pub fn voronoi(&self) -> Option<ProbeSelection<'_>> {
+        Some(ProbeSelection::Voronoi {
+            nearest: &self.index.nearest,
+            neighbours: self.index.neighbours.as_ref()?,
+        })
+    }
+}
+
 /// Builds the Delaunay tetrahedralization, the nearest-probe tree, the Voronoi-sphere
 /// neighbour maps and the sparse voxel octree of `positions` (no edge casts: the probes are
 /// baked already).
@@ -290,10 +301,7 @@ impl Selection {
                 .svo
                 .as_ref()
                 .map(ProbeSelection::SparseVoxelOctree),
-            Selection::Voronoi => Some(ProbeSelection::Voronoi {
-                nearest: &index.index.nearest,
-                neighbours: &index.index.neighbours,
-            }),
+            Selection::Voronoi => index.voronoi(),
         }
     }
 
@@ -563,13 +571,7 @@ pub fn trace_view(
     let summary = TraceSummary::of(&output.results);
     let comparison = compare_rays(baked, &view.reference, &output.results);
     let mse = image.mse(&view.reference_image)?;
-    let reference_power = view
-        .reference_image
-        .rgb
-        .iter()
-        .map(|p| p.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / 3.0)
-        .sum::<f64>()
-        / view.reference_image.rgb.len().max(1) as f64;
+    let reference_power = mean_square(&view.reference_image);
     let gpu_ms = output.timing.gpu.map(|d| d.as_secs_f64() * 1e3);
     let wall_ms = output.timing.wall.as_secs_f64() * 1e3;
     let metrics = TraceMetrics {
@@ -597,6 +599,16 @@ pub fn trace_view(
         mse_tonemapped: tonemapped_mse(&image, &view.reference_image),
     };
     Ok(Some((metrics, image)))
+}
+
+/// The mean squared channel value of an image (its "power": what relative MSE divides by).
+pub fn mean_square(image: &Image) -> f64 {
+    image
+        .rgb
+        .iter()
+        .map(|p| p.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / 3.0)
+        .sum::<f64>()
+        / image.rgb.len().max(1) as f64
 }
 
 /// MSE of two same-sized images after `x / (1 + x)` per channel (negative values clamp to 0).
