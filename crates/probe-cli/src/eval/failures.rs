@@ -60,6 +60,7 @@ use serde::Serialize;
 use super::EvalError;
 use super::pipeline::{
     BuiltIndex, Device, EvalView, ViewSettings, build_index, light_field, mean_square,
+    texel_footprint,
 };
 use crate::placement::{CaptureOracle, Method, PlaceOptions, place};
 
@@ -731,7 +732,6 @@ fn agreement(
     truth: &[Option<Hit>],
     results: &[RayResult],
 ) -> Agreement {
-    let texel_angle = 2.0 * std::f32::consts::PI.sqrt() / baked.resolution() as f32;
     let mut a = Agreement {
         rays: results.len(),
         ..Agreement::default()
@@ -750,16 +750,7 @@ fn agreement(
                 let error = (result.position - hit.position).length();
                 a.position_error_sum += f64::from(error);
                 a.position_errors += 1;
-                let footprint = result.probe.map_or(0.0, |p| {
-                    let to_hit = hit.position - baked.positions()[p as usize];
-                    let distance = to_hit.length();
-                    let cosine = if distance > 0.0 {
-                        hit.geometric_normal.dot(to_hit / distance).abs().max(0.2)
-                    } else {
-                        1.0
-                    };
-                    distance * texel_angle / cosine
-                });
+                let footprint = texel_footprint(baked, result.probe, hit);
                 if error <= 2.0 * footprint + 0.002 * extent {
                     a.correct += 1;
                 } else {

@@ -12,7 +12,7 @@ use probe_capture::{
     trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
-use probe_scene::{Camera, Scene};
+use probe_scene::{Camera, Hit, Scene};
 use probe_trace_gpu::{
     CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions, GpuContext, GpuTracer, Interpolation,
     IrradianceField, LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint, TraceMethod,
@@ -601,6 +601,23 @@ pub fn trace_view(
     Ok(Some((metrics, image)))
 }
 
+/// The size of the answering probe's texel at the true hit: the texel's angular size (a sphere
+/// of 4π cut into `resolution²` texels) times the distance, over the cosine of incidence
+/// (at least 0.2). 0 when no probe answered.
+pub fn texel_footprint(baked: &ProbeBake, probe: Option<u32>, hit: &Hit) -> f32 {
+    let texel_angle = 2.0 * std::f32::consts::PI.sqrt() / baked.resolution() as f32;
+    probe.map_or(0.0, |p| {
+        let to_hit = hit.position - baked.positions()[p as usize];
+        let distance = to_hit.length();
+        let cosine = if distance > 0.0 {
+            hit.geometric_normal.dot(to_hit / distance).abs().max(0.2)
+        } else {
+            1.0
+        };
+        distance * texel_angle / cosine
+    })
+}
+
 /// The mean squared channel value of an image (its "power": what relative MSE divides by).
 pub fn mean_square(image: &Image) -> f64 {
     image
@@ -640,7 +657,6 @@ fn compare_rays(
     results: &[RayResult],
 ) -> RayComparison {
     // The angular size of a texel of mean solid angle 4π/N².
-    let texel_angle = 2.0 * std::f32::consts::PI.sqrt() / baked.resolution() as f32;
     let (mut agree, mut both, mut within, mut error_sum, mut se) =
         (0usize, 0usize, 0usize, 0.0f64, 0.0f64);
     for (truth, result) in reference.iter().zip(results) {
@@ -652,17 +668,7 @@ fn compare_rays(
                 both += 1;
                 let error = (result.position - hit.position).length();
                 error_sum += f64::from(error);
-                let footprint = result.probe.map_or(0.0, |p| {
-                    let probe = baked.positions()[p as usize];
-                    let to_hit = hit.position - probe;
-                    let distance = to_hit.length();
-                    let cosine = if distance > 0.0 {
-                        hit.geometric_normal.dot(to_hit / distance).abs().max(0.2)
-                    } else {
-                        1.0
-                    };
-                    distance * texel_angle / cosine
-                });
+                let footprint = texel_footprint(baked, result.probe, hit);
                 within += usize::from(error <= footprint);
             }
             (None, RayStatus::Miss) => agree += 1,
