@@ -11,7 +11,7 @@ use crate::bake::Progress;
 use crate::image::Image;
 use crate::render::RenderError;
 use crate::rng::{Rng, orthonormal_basis};
-use crate::shading::Shader;
+use crate::shading::{Shader, normals_towards};
 
 /// Random-stream tags, so that the streams of different stages never coincide.
 pub(crate) const PIXEL_STREAM: u64 = 0x5049_5845_4c00_0001;
@@ -135,13 +135,7 @@ pub fn render_gbuffer(
             let hit = scene.closest_hit(&ray, f32::INFINITY)?;
             let material = &scene.materials()[hit.material as usize];
             let towards_camera = -ray.direction;
-            let facing = hit.geometric_normal.dot(towards_camera) >= 0.0;
-            let sign = if facing { 1.0 } else { -1.0 };
-            let geometric_normal = hit.geometric_normal * sign;
-            let mut shading_normal = hit.shading_normal * sign;
-            if shading_normal.dot(towards_camera) <= 0.0 {
-                shading_normal = geometric_normal;
-            }
+            let (facing, geometric_normal, shading_normal) = normals_towards(&hit, towards_camera);
             Some(GBufferSample {
                 position: hit.position,
                 geometric_normal,

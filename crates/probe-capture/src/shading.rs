@@ -95,6 +95,30 @@ struct Surface {
     triangle: u32,
 }
 
+impl Surface {
+    /// The cosine at the shading normal of light arriving from unit `direction`, if the light
+    /// reaches the front of both normals.
+    #[inline]
+    fn cosine_towards(&self, direction: Vec3) -> Option<f32> {
+        let cosine = self.shading_normal.dot(direction);
+        (cosine > 0.0 && self.geometric_normal.dot(direction) > 0.0).then_some(cosine)
+    }
+
+    /// The unit direction to `point`, the squared distance and the cosine of
+    /// [`Self::cosine_towards`]; `None` when `point` is on the surface point or behind it.
+    #[inline]
+    fn towards_point(&self, point: Vec3) -> Option<(Vec3, f32, f32)> {
+        let to_point = point - self.position;
+        let distance_squared = to_point.length_squared();
+        if distance_squared <= 0.0 {
+            return None;
+        }
+        let direction = to_point / distance_squared.sqrt();
+        let cosine = self.cosine_towards(direction)?;
+        Some((direction, distance_squared, cosine))
+    }
+}
+
 /// The shading core: the radiance leaving a surface point towards a viewer, used unchanged by
 /// the probe bake ([`crate::bake`]) and the reference renderer ([`crate::render`],
 /// [`crate::trace_reference`]), so that both "shade the true hit the same way".
@@ -280,15 +304,9 @@ impl<'s> Shader<'s> {
     #[inline]
     fn surface(&self, hit: &Hit, towards_viewer: Vec3) -> Option<Surface> {
         let material = &self.scene.materials()[hit.material as usize];
-        let facing = hit.geometric_normal.dot(towards_viewer) >= 0.0;
+        let (facing, geometric_normal, shading_normal) = normals_towards(hit, towards_viewer);
         if !facing && !material.double_sided {
             return None;
-        }
-        let sign = if facing { 1.0 } else { -1.0 };
-        let geometric_normal = hit.geometric_normal * sign;
-        let mut shading_normal = hit.shading_normal * sign;
-        if shading_normal.dot(towards_viewer) <= 0.0 {
-            shading_normal = geometric_normal;
         }
         Some(Surface {
             position: hit.position,
@@ -367,11 +385,10 @@ impl<'s> Shader<'s> {
     /// Irradiance from a light at infinity in unit direction `towards_light`.
     #[inline]
     fn directional(&self, surface: &Surface, towards_light: Vec3, irradiance: Vec3) -> Vec3 {
-        let cosine = surface.shading_normal.dot(towards_light);
-        if cosine <= 0.0
-            || surface.geometric_normal.dot(towards_light) <= 0.0
-            || irradiance.max_element() <= 0.0
-        {
+        let Some(cosine) = surface.cosine_towards(towards_light) else {
+            return Vec3::ZERO;
+        };
+        if irradiance.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
         let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
@@ -394,17 +411,11 @@ impl<'s> Shader<'s> {
         if intensity.max_element() <= 0.0 {
             return Vec3::ZERO;
         }
-        let to_light = position - surface.position;
-        let distance_squared = to_light.length_squared();
-        if distance_squared <= 0.0 {
+        let Some((towards_light, distance_squared, cosine)) = surface.towards_point(position)
+        else {
             return Vec3::ZERO;
-        }
+        };
         let distance = distance_squared.sqrt();
-        let towards_light = to_light / distance;
-        let cosine = surface.shading_normal.dot(towards_light);
-        if cosine <= 0.0 || surface.geometric_normal.dot(towards_light) <= 0.0 {
-            return Vec3::ZERO;
-        }
         let mut attenuation = 1.0 / distance_squared;
         if let Some(range) = range {
             // KHR_lights_punctual's recommended window: clamp(1 − (d/range)⁴, 0, 1) / d².
@@ -441,17 +452,9 @@ impl<'s> Shader<'s> {
         let triangle = &self.scene.triangles()[index as usize];
         let material = &self.scene.materials()[triangle.material as usize];
         let point = triangle.point(barycentrics);
-        let to_light = point - surface.position;
-        let distance_squared = to_light.length_squared();
-        if distance_squared <= 0.0 {
+        let Some((towards_light, distance_squared, cosine)) = surface.towards_point(point) else {
             return Vec3::ZERO;
-        }
-        let distance = distance_squared.sqrt();
-        let towards_light = to_light / distance;
-        let cosine = surface.shading_normal.dot(towards_light);
-        if cosine <= 0.0 || surface.geometric_normal.dot(towards_light) <= 0.0 {
-            return Vec3::ZERO;
-        }
+        };
         let mut light_cosine = -triangle.geometric_normal().dot(towards_light);
         if material.double_sided {
             light_cosine = light_cosine.abs();
@@ -470,6 +473,21 @@ impl<'s> Shader<'s> {
         }
         material.emissive * (cosine * light_cosine / (distance_squared * pdf_area))
     }
+}
+
+/// Whether `hit`'s front faces `towards` (a unit direction to the viewer), and its geometric
+/// and shading normals turned to the viewer's side (the shading normal falls back to the
+/// geometric one where it would face away).
+#[inline]
+pub(crate) fn normals_towards(hit: &Hit, towards: Vec3) -> (bool, Vec3, Vec3) {
+    let facing = hit.geometric_normal.dot(towards) >= 0.0;
+    let sign = if facing { 1.0 } else { -1.0 };
+    let geometric_normal = hit.geometric_normal * sign;
+    let mut shading_normal = hit.shading_normal * sign;
+    if shading_normal.dot(towards) <= 0.0 {
+        shading_normal = geometric_normal;
+    }
+    (facing, geometric_normal, shading_normal)
 }
 
 /// The `t_max` of a shadow ray from `origin` to a light at `target`: slightly short of the

@@ -93,8 +93,34 @@ pub fn camera(scene: &Scene, spec: &str) -> Result<probe_scene::Camera, CliError
     })
 }
 
+/// The sun options of the commands that light a scene (`bake`, `reference`).
+#[derive(clap::Args, Debug)]
+pub struct SunArgs {
+    /// Sun direction `x,y,z` (the direction light travels); replaces the default daylight's.
+    #[arg(long)]
+    pub sun_direction: Option<String>,
+    /// Sun illuminance (relative units; the default daylight has 20).
+    #[arg(long)]
+    pub sun_illuminance: Option<f32>,
+}
+
+impl SunArgs {
+    /// The lighting environment: the scene's default, with the sun changed if asked (`None`:
+    /// the scene's default unchanged).
+    ///
+    /// # Errors
+    /// [`CliError::InvalidArgument`] for a zero or unparsable direction, or a negative or
+    /// non-finite illuminance.
+    pub fn environment(
+        &self,
+        scene: &Scene,
+    ) -> Result<Option<probe_capture::Environment>, CliError> {
+        environment(scene, self.sun_direction.as_deref(), self.sun_illuminance)
+    }
+}
+
 /// The lighting environment: the scene's default, with the sun changed if asked.
-pub fn environment(
+fn environment(
     scene: &Scene,
     sun_direction: Option<&str>,
     sun_illuminance: Option<f32>,

@@ -140,13 +140,7 @@ impl VoxelGrid {
 
     /// The flat index of a cell. Panics outside the grid.
     pub fn index(&self, cell: [u32; 3]) -> usize {
-        let [nx, ny, nz] = self.dims;
-        assert!(
-            cell[0] < nx && cell[1] < ny && cell[2] < nz,
-            "cell {cell:?} outside {:?}",
-            self.dims
-        );
-        cell[0] as usize + nx as usize * (cell[1] as usize + ny as usize * cell[2] as usize)
+        flat_index(self.dims, cell)
     }
 
     /// The cell of a flat index. Panics outside the grid.
@@ -500,14 +494,7 @@ impl DistanceField {
     /// The distance in metres from the centre of `cell` to the nearest blocked voxel centre.
     /// Panics outside the grid.
     pub fn distance(&self, cell: [u32; 3]) -> f32 {
-        let [nx, ny, nz] = self.dims;
-        assert!(
-            cell[0] < nx && cell[1] < ny && cell[2] < nz,
-            "cell {cell:?} outside the grid"
-        );
-        let index =
-            cell[0] as usize + nx as usize * (cell[1] as usize + ny as usize * cell[2] as usize);
-        (self.squared[index] as f32).sqrt() * self.voxel_size
+        (self.squared[flat_index(self.dims, cell)] as f32).sqrt() * self.voxel_size
     }
 
     /// [`DistanceField::distance`] at the voxel containing `point`; `None` outside the grid.
@@ -644,6 +631,16 @@ impl Envelope {
             *out = (d * d + u64::from(f[p])).min(u64::from(UNREACHED - 1)) as u32;
         }
     }
+}
+
+/// The flat index `x + nx · (y + ny · z)` of `cell` in a grid of `dims`. Panics outside it.
+fn flat_index(dims: [u32; 3], cell: [u32; 3]) -> usize {
+    let [nx, ny, nz] = dims;
+    assert!(
+        cell[0] < nx && cell[1] < ny && cell[2] < nz,
+        "cell {cell:?} outside {dims:?}"
+    );
+    cell[0] as usize + nx as usize * (cell[1] as usize + ny as usize * cell[2] as usize)
 }
 
 #[cfg(test)]

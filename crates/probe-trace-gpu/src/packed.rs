@@ -3,7 +3,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use probe_index::{GridParams, NO_PROBE, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader};
+use probe_index::{GridParams, NO_PROBE, ProbeGrid, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader};
 use probe_octa::OctaLayout;
 
 use crate::error::UploadError;
@@ -125,6 +125,18 @@ pub(crate) const COS_TRUSTED: f32 = 0.25;
 
 /// The sign bit of an `f32`, used as a flag on values that are never negative.
 pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
+
+/// A grid's GPU parameters, after checking it holds the uploaded probes.
+fn grid_params(grid: &ProbeGrid, probes: usize) -> Result<GridParams, UploadError> {
+    if grid.probe_count() != probes {
+        return Err(UploadError::ProbeCountMismatch {
+            selection: "grid",
+            expected: probes,
+            actual: grid.probe_count(),
+        });
+    }
+    Ok(grid.gpu_params())
+}
 
 /// Per-texel depth bounds and edge flags of one probe, computed at upload.
 ///
@@ -541,15 +553,8 @@ impl PackedSelection {
         };
         match selection {
             ProbeSelection::Grid(grid) => {
-                if grid.probe_count() != probe_count {
-                    return Err(UploadError::ProbeCountMismatch {
-                        selection: "grid",
-                        expected: probe_count,
-                        actual: grid.probe_count(),
-                    });
-                }
                 packed.kind = SELECT_GRID;
-                packed.grid = grid.gpu_params();
+                packed.grid = grid_params(grid, probe_count)?;
             }
             ProbeSelection::SparseVoxelOctree(svo) => {
                 packed.kind = SELECT_SVO;
@@ -738,14 +743,7 @@ impl PackedIrradiance {
         };
         match interpolation {
             Interpolation::Grid(grid) => {
-                if grid.probe_count() != probes {
-                    return Err(UploadError::ProbeCountMismatch {
-                        selection: "grid",
-                        expected: probes,
-                        actual: grid.probe_count(),
-                    });
-                }
-                packed.grid = grid.gpu_params();
+                packed.grid = grid_params(grid, probes)?;
             }
             Interpolation::Delaunay(tets) => {
                 if tets.points().len() != probes {

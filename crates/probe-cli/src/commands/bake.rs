@@ -4,7 +4,7 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
-use crate::spec::{environment, open_scene, probe_set};
+use crate::spec::{SunArgs, open_scene, probe_set};
 use probe_capture::{BakeSettings, ProbeBake, bake};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -30,12 +30,9 @@ pub struct Args {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Sun direction `x,y,z` (the direction light travels); replaces the default daylight's.
-    #[arg(long)]
-    pub sun_direction: Option<String>,
-    /// Sun illuminance (relative units; the default daylight has 20).
-    #[arg(long)]
-    pub sun_illuminance: Option<f32>,
+    /// The sun.
+    #[command(flatten)]
+    pub sun: SunArgs,
     /// The bake directory to write (created; an existing bake there is replaced).
     #[arg(long)]
     pub out: PathBuf,
@@ -53,7 +50,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         samples_per_texel: args.spp,
         bounces: args.bounces,
         seed: args.seed,
-        environment: environment(&scene, args.sun_direction.as_deref(), args.sun_illuminance)?,
+        environment: args.sun.environment(&scene)?,
         ..BakeSettings::default()
     };
     let progress = bar(0, "baking");

@@ -4,7 +4,7 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
-use crate::spec::{camera, environment, open_scene, reflection};
+use crate::spec::{SunArgs, camera, open_scene, reflection};
 use probe_capture::{Component, RenderSettings, render};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -50,12 +50,9 @@ pub struct Args {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Sun direction `x,y,z` (the direction light travels); replaces the default daylight's.
-    #[arg(long)]
-    pub sun_direction: Option<String>,
-    /// Sun illuminance (relative units; the default daylight has 20).
-    #[arg(long)]
-    pub sun_illuminance: Option<f32>,
+    /// The sun.
+    #[command(flatten)]
+    pub sun: SunArgs,
     /// The EXR image to write.
     #[arg(long)]
     pub out: PathBuf,
@@ -73,8 +70,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     settings.seed = args.seed;
     settings.bounces = args.bounces;
     settings.reflection = reflection(&args.reflection)?;
-    settings.environment =
-        environment(&scene, args.sun_direction.as_deref(), args.sun_illuminance)?;
+    settings.environment = args.sun.environment(&scene)?;
     settings.component = match args.component {
         ComponentArg::Direct => Component::Direct,
         ComponentArg::Glossy1 => Component::Glossy1,

@@ -40,9 +40,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use probe_capture::{
-    BakeSettings, ProbeBake, Rng, accumulate_rays, bake, no_progress, render_gbuffer,
-};
+use probe_capture::{BakeSettings, ProbeBake, Rng, bake, no_progress, render_gbuffer};
 use probe_index::{IndexOptions, ProbeGrid, ProbeIndex, Tetrahedralization};
 use probe_octa::{OctaMap, encode};
 use probe_place::{
@@ -799,13 +797,7 @@ fn trace_view_rays(
 ) -> Result<ViewTrace, EvalError> {
     let rays = view.trace_rays();
     let results = trace_rays(device, baked, selection, &rays, &TraceOptions::default())?;
-    let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
-    let image = accumulate_rays(
-        view.settings.width,
-        view.settings.height,
-        &view.rays,
-        &radiance,
-    )?;
+    let image = view.image_of(&results)?;
     let image_finite = image.rgb.iter().flatten().all(|v| v.is_finite());
     let mse = image.mse(&view.reference_image)?;
     let power = mean_square(&view.reference_image);

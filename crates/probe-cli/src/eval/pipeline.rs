@@ -18,12 +18,14 @@ use probe_trace_gpu::{
     IrradianceField, LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint, TraceMethod,
     TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::EvalError;
 
-/// How the evaluation rays of a view are made.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+/// How the evaluation rays of a view are made (also the `[view]` table of `eval.toml`; every
+/// field optional).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct ViewSettings {
     /// Image width in pixels.
     pub width: u32,
@@ -133,6 +135,21 @@ impl EvalView {
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
             .collect()
+    }
+
+    /// The glossy image of traced `results` (one per ray of [`Self::trace_rays`]), weighted into
+    /// pixels as the reference image is.
+    ///
+    /// # Errors
+    /// [`EvalError::Image`] if `results` does not have one entry per ray.
+    pub fn image_of(&self, results: &[RayResult]) -> Result<Image, EvalError> {
+        let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
+        Ok(accumulate_rays(
+            self.settings.width,
+            self.settings.height,
+            &self.rays,
+            &radiance,
+        )?)
     }
 }
 
@@ -561,13 +578,7 @@ pub fn trace_view(
     let warm = rays.len().min(256);
     device.trace(&rays[..warm], &options)?;
     let output = device.trace(rays, &options)?;
-    let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
-    let image = accumulate_rays(
-        view.settings.width,
-        view.settings.height,
-        &view.rays,
-        &radiance,
-    )?;
+    let image = view.image_of(&output.results)?;
     let summary = TraceSummary::of(&output.results);
     let comparison = compare_rays(baked, &view.reference, &output.results);
     let mse = image.mse(&view.reference_image)?;

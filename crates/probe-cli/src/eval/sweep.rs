@@ -34,7 +34,7 @@ use crate::placement::{Method, Optimizer, PlaceOptions, place};
 #[serde(deny_unknown_fields, default)]
 pub struct EvalConfig {
     /// Evaluation rays and reference.
-    pub view: ViewConfig,
+    pub view: ViewSettings,
     /// Probe resolution (interior texels per side, a power of two).
     pub resolution: u32,
     /// Radiance samples per texel.
@@ -69,41 +69,6 @@ pub struct EvalConfig {
     pub scenes: Vec<SceneConfig>,
 }
 
-/// How the evaluation rays are made.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct ViewConfig {
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
-    /// Reflection rays per pixel.
-    pub rays_per_pixel: u32,
-    /// GGX roughness (0: mirror).
-    pub roughness: f32,
-    /// Shading samples per reference hit.
-    pub shading_samples: u32,
-    /// Diffuse bounces in the radiance.
-    pub bounces: u32,
-    /// Seed.
-    pub seed: u64,
-}
-
-impl Default for ViewConfig {
-    fn default() -> Self {
-        let v = ViewSettings::default();
-        Self {
-            width: v.width,
-            height: v.height,
-            rays_per_pixel: v.rays_per_pixel,
-            roughness: v.roughness,
-            shading_samples: v.shading_samples,
-            bounces: v.bounces,
-            seed: v.seed,
-        }
-    }
-}
-
 /// One scene of the sweep.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -128,7 +93,7 @@ fn default_cameras() -> Vec<String> {
 impl Default for EvalConfig {
     fn default() -> Self {
         Self {
-            view: ViewConfig::default(),
+            view: ViewSettings::default(),
             resolution: 128,
             samples_per_texel: 2,
             svo_depth: 7,
@@ -641,15 +606,7 @@ pub fn run_sweep(
                     ))
                 })?
             };
-            let settings = ViewSettings {
-                width: config.view.width,
-                height: config.view.height,
-                rays_per_pixel: config.view.rays_per_pixel,
-                roughness: config.view.roughness,
-                shading_samples: config.view.shading_samples,
-                bounces: config.view.bounces,
-                seed: config.view.seed,
-            };
+            let settings = config.view;
             log(&format!("{} / {}: reference", scene.name(), camera.name));
             let view = EvalView::render(&scene, camera, settings, &|_, _| {})?;
             reference_seconds.insert(

@@ -89,6 +89,17 @@ impl CpuTracer {
         Ok(())
     }
 
+    /// The uploaded light field and selection.
+    fn uploaded(&self) -> Result<(&PackedField, &PackedSelection), TraceError> {
+        match (&self.field, &self.selection) {
+            (Some(field), Some(selection)) => Ok((field, selection)),
+            _ => Err(TraceError::NotUploaded {
+                what: "light field",
+                call: "upload",
+            }),
+        }
+    }
+
     /// Traces `rays` through the uploaded light field.
     ///
     /// # Errors
@@ -100,12 +111,7 @@ impl CpuTracer {
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError> {
         let start = Instant::now();
-        let (Some(field), Some(selection)) = (&self.field, &self.selection) else {
-            return Err(TraceError::NotUploaded {
-                what: "light field",
-                call: "upload",
-            });
-        };
+        let (field, selection) = self.uploaded()?;
         let params = trace_params(field, selection, options)?;
         let rays = prepare_rays(rays)?;
         let records = parallel_map(&rays, |ray| {
@@ -130,12 +136,7 @@ impl CpuTracer {
         rays: &[TraceRay],
         options: &TraceOptions,
     ) -> Result<FetchProfile, TraceError> {
-        let (Some(field), Some(selection)) = (&self.field, &self.selection) else {
-            return Err(TraceError::NotUploaded {
-                what: "light field",
-                call: "upload",
-            });
-        };
+        let (field, selection) = self.uploaded()?;
         let params = trace_params(field, selection, options)?;
         let rays = prepare_rays(rays)?;
         let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
