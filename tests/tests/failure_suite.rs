@@ -4,9 +4,9 @@
 //!
 //! With `PROBE_REQUIRE_GPU` set (CI), the tracer must run on a GPU adapter (lavapipe there);
 //! otherwise the CPU twin stands in when none exists. `PROBE_FAILURE_CASES=a,b` runs only the
-//! named cases (names in `probe_cli::eval::failures::FAILURE_CASES`).
+//! named cases (names in `probe_eval::failures::FAILURE_CASES`).
 
-use probe_cli::eval::failures::{
+use probe_eval::failures::{
     FAILURE_CASES, FailureOptions, Outcome, SharedScenes, run_failure_suite,
 };
 

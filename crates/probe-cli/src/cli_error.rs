@@ -32,13 +32,13 @@ pub enum CliError {
     Image(#[from] probe_capture::ImageError),
     /// Placement failed.
     #[error("placement: {0}")]
-    Place(#[from] probe_cli::placement::PlaceError),
+    Place(#[from] probe_place::pipeline::PlaceError),
     /// A top view could not be drawn.
     #[error("top view: {0}")]
-    TopView(#[from] probe_cli::top_view::TopViewError),
+    TopView(#[from] probe_eval::top_view::TopViewError),
     /// An evaluation step failed.
     #[error(transparent)]
-    Eval(#[from] probe_cli::eval::EvalError),
+    Eval(#[from] probe_eval::EvalError),
     /// A command-line value could not be understood.
     #[error("invalid {parameter} {value:?}: {reason}")]
     InvalidArgument {

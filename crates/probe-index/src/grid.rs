@@ -121,6 +121,50 @@ impl ProbeGrid {
         let z = index / (self.counts[0] * self.counts[1]);
         self.origin + Vec3::new(x as f32, y as f32, z as f32) * self.spacing
     }
+    /// The regular grid `positions` form, if they do: an axis-aligned lattice of at least 2
+    /// probes per axis (`nx` distinct x values, `ny` y values, `nz` z values, `nx·ny·nz`
+    /// probes), listed x fastest, then y, then z (as probe-place's `RegularGrid` and
+    /// `grid:NXxNYxNZ` make them), each within `1e-4` of the spacing of its lattice point.
+    /// `None` for anything else (uneven spacing, another order, a missing, extra or moved
+    /// probe, a flat set, NaN), so a caller can fall back to a general index.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use probe_index::ProbeGrid;
+    ///
+    /// let grid = ProbeGrid::new(Vec3::new(-1.0, 0.5, 2.0), Vec3::new(0.5, 1.0, 0.25), [3, 2, 4])?;
+    /// assert_eq!(ProbeGrid::detect(&grid.positions()), Some(grid));
+    /// let mut moved = grid.positions();
+    /// moved[5].x += 0.1;
+    /// assert_eq!(ProbeGrid::detect(&moved), None);
+    /// # Ok::<(), probe_index::GridError>(())
+    /// ```
+    pub fn detect(positions: &[Vec3]) -> Option<ProbeGrid> {
+        let first = *positions.first()?;
+        let counts = [0usize, 1, 2].map(|axis| {
+            let mut values: Vec<f32> = positions.iter().map(|p| p[axis]).collect();
+            values.sort_by(f32::total_cmp);
+            values.dedup();
+            values.len()
+        });
+        if counts.iter().product::<usize>() != positions.len() || counts.iter().any(|&c| c < 2) {
+            return None;
+        }
+        let at = |i: usize| positions[i];
+        let spacing = Vec3::new(
+            at(1).x - first.x,
+            at(counts[0]).y - first.y,
+            at(counts[0] * counts[1]).z - first.z,
+        );
+        let grid = ProbeGrid::new(first, spacing, counts.map(|c| c as u32)).ok()?;
+        let tolerance = 1e-4 * spacing.max_element();
+        grid.positions()
+            .iter()
+            .zip(positions)
+            .all(|(a, b)| a.distance(*b) <= tolerance)
+            .then_some(grid)
+    }
+
 
     /// All probe positions in index order.
     pub fn positions(&self) -> Vec<Vec3> {

@@ -11,8 +11,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
-/// Where the lighting comes from: a renderer (probe-capture's SH probes, wired in by the CLI),
-/// or an analytic model such as [`PointLightOracle`].
+/// Where the lighting comes from: a renderer (probe-capture's shading, wired in by
+/// probe-eval's `CaptureOracle`), or an analytic model such as [`PointLightOracle`].
 pub trait LightingOracle: Sync {
     /// How lit `point` is: the irradiance (linear RGB) on a small surface at `point` facing
     /// the brightest direction, or any other non-negative measure that is zero exactly where

@@ -168,6 +168,13 @@
 //! land in the dark or outside free space (seed 002's second-order rule) and halves the step
 //! when it overshoots; unlit probes become `k` k-means centres. Every random choice takes a
 //! seed.
+//!
+//! # End to end
+//!
+//! [`pipeline::place`] runs one method (grid, relocated grid, SDF, medial axis, seed 002, or
+//! the minimal cover), an optional optimiser and an optional budget or coverage target, and
+//! measures the result on one visibility atlas, as `probes place` and probe-eval's sweep do;
+//! [`pipeline::fill_to_budget`] spends a budget left over after a cover.
 
 #![forbid(unsafe_code)]
 
@@ -179,6 +186,7 @@ mod irradiance;
 mod medial;
 mod minimal;
 mod optimize;
+pub mod pipeline;
 mod probes;
 mod report;
 mod sdf;

@@ -2,7 +2,7 @@
 
 use crate::cli_error::CliError;
 use crate::output::Report;
-use probe_cli::eval::demo::{DemoOptions, DemoReport, run_demo};
+use probe_eval::demo::{DemoOptions, DemoReport, run_demo};
 use serde_json::Value;
 use std::path::PathBuf;
 

@@ -2,7 +2,7 @@
 
 use crate::cli_error::CliError;
 use crate::output::Report;
-use probe_cli::eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
+use probe_eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -21,6 +21,12 @@ pub struct Args {
     /// Fail instead of using the CPU twin when no GPU adapter exists.
     #[arg(long)]
     pub require_gpu: bool,
+    /// The shared scenes folder the failure suite's file cases read (`../shared/scenes` beside
+    /// a checkout). Default: the `PROBE_SCENES_DIR` environment variable if set, else the
+    /// configuration's `scenes_dir` (relative to the configuration file); with none, those
+    /// cases are skipped and the report says so.
+    #[arg(long)]
+    pub scenes_dir: Option<PathBuf>,
 }
 
 /// Runs the sweep, logging each step to stderr.
@@ -30,6 +36,13 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         None => EvalConfig::default(),
     };
     config.require_gpu |= args.require_gpu;
+    if let Some(dir) = args
+        .scenes_dir
+        .clone()
+        .or_else(|| std::env::var_os("PROBE_SCENES_DIR").map(PathBuf::from))
+    {
+        config.scenes_dir = Some(dir);
+    }
     config
         .scenes
         .extend(args.scenes.iter().map(|scene| SceneConfig {

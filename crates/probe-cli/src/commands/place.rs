@@ -4,8 +4,10 @@ use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::spinner;
 use crate::spec::open_scene;
-use probe_cli::placement::{Method, Optimizer, PlaceOptions, Placement, place};
-use probe_cli::top_view::{TopViewOptions, write_top_view};
+use probe_eval::EvalError;
+use probe_eval::lighting::place_lit;
+use probe_eval::top_view::{TopViewOptions, write_top_view};
+use probe_place::pipeline::{Method, Optimizer, PlaceOptions, Placement};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -115,9 +117,13 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         ..PlaceOptions::new(method)
     };
     let progress = spinner("placing");
-    let placed = place(&scene, &options);
+    // Seed 002's methods get their lighting from probe-capture.
+    let placed = place_lit(&scene, &options);
     progress.finish_and_clear();
-    let placed = placed?;
+    let placed = placed.map_err(|error| match error {
+        EvalError::Place(error) => CliError::Place(error),
+        other => CliError::Eval(other),
+    })?;
     placed.probes.save(&args.out)?;
     if let Some(png) = &args.top_view {
         let bounds = scene.bounds();
@@ -142,7 +148,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             reason: "there is no history without --optimize".into(),
         })?;
         let text = serde_json::to_string_pretty(history).unwrap_or_default();
-        probe_cli::eval::write_atomic(path, text.as_bytes())?;
+        probe_eval::write_atomic(path, text.as_bytes())?;
     }
     Ok(Box::new(PlaceSummary {
         placed,

@@ -9,7 +9,8 @@ use crate::spec::{camera, open_scene};
 use glam::Vec3;
 use probe_capture::Image;
 use probe_capture::{ProbeBake, accumulate_rays, reflection_rays, render_gbuffer};
-use probe_cli::eval::pipeline::{Device, Selection, Tracer, build_index, detect_grid, light_field};
+use probe_eval::pipeline::{Device, Selection, Tracer, build_index, light_field};
+use probe_index::ProbeGrid;
 use probe_trace_gpu::{DiffuseOptions, Interpolation, ShadingPoint, TraceRay, TraceSummary};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -124,7 +125,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let progress = spinner("rendering");
     let start = Instant::now();
     let gbuffer = render_gbuffer(&scene, &camera, args.width, args.height)?;
-    let grid = detect_grid(baked.positions());
+    let grid = ProbeGrid::detect(baked.positions());
     let mut json = json!({
         "command": "render",
         "scene": scene.name(),
@@ -282,8 +283,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
 
 fn index_tetrahedra(baked: &ProbeBake) -> Result<probe_index::Tetrahedralization, CliError> {
     Ok(probe_index::Tetrahedralization::build(baked.positions())
-        .map_err(probe_index::IndexError::from)
-        .map_err(probe_cli::eval::EvalError::from)?)
+        .map_err(probe_index::IndexError::from)?)
 }
 
 struct RenderSummary {

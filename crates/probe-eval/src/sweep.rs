@@ -20,14 +20,18 @@ use probe_place::{
 use probe_scene::Scene;
 use serde::{Deserialize, Serialize};
 
-use super::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_suite};
-use super::pipeline::{
-    Device, EvalView, ProbeMemory, Selection, TraceMetrics, Tracer, ViewSettings, bake_for_view,
-    build_index, detect_grid, trace_view,
-};
-use super::{EvalError, write_atomic};
+use probe_index::ProbeGrid;
+use probe_place::pipeline::{Method, Optimizer, PlaceError, PlaceOptions};
+
 use crate::chart::{ChartSpec, Point, Series, SeriesStyle, write_chart};
-use crate::placement::{Method, Optimizer, PlaceOptions, place};
+use crate::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_suite};
+use crate::lighting::place_lit;
+use crate::metrics::TraceMetrics;
+use crate::pipeline::{
+    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
+    trace_view,
+};
+use crate::{EvalError, write_atomic};
 
 /// The sweep's configuration (`--config eval.toml`); every field has a default.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
@@ -61,10 +65,13 @@ pub struct EvalConfig {
     pub require_gpu: bool,
     /// Run the failure suite too and add its section to the report.
     pub failure_suite: bool,
-    /// The shared scenes directory the failure suite's file cases read (default: the one
-    /// `probe_testdata` locates, `../shared/scenes` beside the checkout; cases needing it are
-    /// skipped when it is missing).
-    pub shared_scenes: Option<PathBuf>,
+    /// The shared scenes directory the failure suite's file cases read, laid out as
+    /// [`SharedScenes::in_dir`] expects (`scenes_dir` in TOML; `shared_scenes` is accepted
+    /// too). [`EvalConfig::load`] takes a relative path as relative to the configuration
+    /// file's directory. `None`, or a directory that does not exist: those cases are skipped
+    /// and the report says so.
+    #[serde(alias = "shared_scenes")]
+    pub scenes_dir: Option<PathBuf>,
     /// The scenes.
     pub scenes: Vec<SceneConfig>,
 }
@@ -115,14 +122,16 @@ impl Default for EvalConfig {
             .to_vec(),
             require_gpu: false,
             failure_suite: true,
-            shared_scenes: None,
+            scenes_dir: None,
             scenes: Vec::new(),
         }
     }
 }
 
 impl EvalConfig {
-    /// Reads a TOML configuration.
+    /// Reads a TOML configuration. Relative paths in it (`scenes_dir`, and scene files other
+    /// than `builtin:NAME`) are taken relative to the file's directory, so a configuration
+    /// means the same from any working directory.
     ///
     /// # Errors
     /// [`EvalError::Config`] naming the file.
@@ -131,10 +140,27 @@ impl EvalConfig {
             path: Some(path.to_owned()),
             reason: e.to_string(),
         })?;
-        toml::from_str(&text).map_err(|e| EvalError::Config {
+        let mut config: EvalConfig = toml::from_str(&text).map_err(|e| EvalError::Config {
             path: Some(path.to_owned()),
             reason: e.to_string().replace('\n', " "),
-        })
+        })?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        config.resolve_paths(base);
+        Ok(config)
+    }
+
+    /// Makes relative paths (`scenes_dir`, scene files other than `builtin:NAME`) relative to
+    /// `base` instead of the working directory. [`EvalConfig::load`] does this with the
+    /// configuration file's directory.
+    pub fn resolve_paths(&mut self, base: &Path) {
+        if let Some(dir) = &mut self.scenes_dir {
+            *dir = base.join(&*dir);
+        }
+        for scene in &mut self.scenes {
+            if !scene.scene.starts_with("builtin:") && Path::new(&scene.scene).is_relative() {
+                scene.scene = base.join(&scene.scene).to_string_lossy().into_owned();
+            }
+        }
     }
 
     fn invalid(&self, reason: String) -> EvalError {
@@ -621,7 +647,7 @@ pub fn run_sweep(
                     view.camera.name,
                     spec.name
                 ));
-                let placed = place(&scene, &spec.options)?;
+                let placed = place_lit(&scene, &spec.options)?;
                 let (baked, bake_seconds) = bake_for_view(
                     &scene,
                     &placed.probes.positions,
@@ -632,7 +658,7 @@ pub fn run_sweep(
                 )?;
                 let grid = placed
                     .full_grid
-                    .and_then(|_| detect_grid(baked.positions()));
+                    .and_then(|_| ProbeGrid::detect(baked.positions()));
                 let index = match build_index(
                     &scene,
                     baked.positions(),
@@ -697,12 +723,8 @@ pub fn run_sweep(
     let failures = if config.failure_suite {
         log("failure suite");
         let mut options = FailureOptions::new(config.require_gpu);
-        let dir = config
-            .shared_scenes
-            .clone()
-            .unwrap_or_else(probe_testdata::scenes_dir);
-        if dir.is_dir() {
-            options.shared_scenes = Some(SharedScenes::in_dir(&dir));
+        if let Some(dir) = config.scenes_dir.as_ref().filter(|dir| dir.is_dir()) {
+            options.shared_scenes = Some(SharedScenes::in_dir(dir));
         }
         Some(run_failure_suite(&options)?)
     } else {
@@ -944,7 +966,7 @@ pub fn write_optimiser_chart(out: &Path) -> Result<(PathBuf, PathBuf), EvalError
     let free = BackfaceVote::new(&scene);
     let pool = free_space_grid(&free, 0.035);
     let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 3000), &pool)
-        .map_err(crate::placement::PlaceError::from)?;
+        .map_err(PlaceError::from)?;
     let start = [Vec3::new(0.1, 0.1, 0.1)];
     let iterations = 30;
     let descent = descend(
@@ -957,7 +979,7 @@ pub fn write_optimiser_chart(out: &Path) -> Result<(PathBuf, PathBuf), EvalError
             weights: RewardWeights::default(),
         },
     )
-    .map_err(crate::placement::PlaceError::from)?;
+    .map_err(PlaceError::from)?;
     let mut series = vec![Series::from_values(
         "descent (moves to the best support probe)",
         &descent.history.iter().map(|r| r.reward).collect::<Vec<_>>(),
@@ -973,7 +995,7 @@ pub fn write_optimiser_chart(out: &Path) -> Result<(PathBuf, PathBuf), EvalError
                 ..GibbsParams::with_step(0.04)
             },
         )
-        .map_err(crate::placement::PlaceError::from)?;
+        .map_err(PlaceError::from)?;
         // The best reward met so far: Gibbs keeps the best set it visits.
         let mut best = f64::MIN;
         let values: Vec<f64> = result

@@ -11,13 +11,17 @@ use probe_capture::Image;
 use probe_scene::Scene;
 use serde::Serialize;
 
-use super::pipeline::{
-    Device, EvalView, ProbeMemory, Selection, TraceMetrics, Tracer, ViewSettings, bake_for_view,
-    build_index, detect_grid, trace_view,
+use probe_index::ProbeGrid;
+use probe_place::pipeline::{Method, Optimizer, PlaceOptions};
+
+use crate::lighting::place_lit;
+use crate::metrics::TraceMetrics;
+use crate::pipeline::{
+    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
+    trace_view,
 };
-use super::{EvalError, write_atomic};
-use crate::placement::{Method, Optimizer, PlaceOptions, place};
 use crate::top_view::{TopViewOptions, write_top_view};
+use crate::{EvalError, write_atomic};
 
 /// What the demo runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -213,7 +217,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
     let mut placed_positions = Vec::new();
     for (name, place_options) in &placements {
         log(&format!("placing: {name}"));
-        let placed = place(&scene, place_options)?;
+        let placed = place_lit(&scene, place_options)?;
         log(&format!(
             "  {} probes, coverage {:.1} %, {} inside geometry",
             placed.probes.len(),
@@ -239,7 +243,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             &scene,
             baked.positions(),
             7,
-            detect_grid(baked.positions()),
+            ProbeGrid::detect(baked.positions()),
             0,
         )?;
         let slug: String = name

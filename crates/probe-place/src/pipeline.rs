@@ -1,47 +1,70 @@
-//! Placement as the `probes place` command and the evaluation run it: a method (regular grid,
-//! DDGI-relocated grid, SDF skeleton, medial axis, seed 002's irradiance-driven methods, or the
-//! minimal cover), an optional optimiser (Gibbs sampling or descent), an optional budget or
-//! coverage target, and the placement report measured on one visibility atlas.
+//! Placement end to end, as the `probes place` command and the evaluation run it: a method
+//! (regular grid, DDGI-relocated grid, SDF skeleton, medial axis, seed 002's
+//! irradiance-driven methods, or the minimal cover), an optional optimiser (Gibbs sampling or
+//! descent), an optional budget or coverage target, and the placement report measured on one
+//! visibility atlas ([`place`]).
 //!
-//! probe-place knows nothing of probe-capture: [`CaptureOracle`] wires probe-capture's shading
-//! into probe-place's [`LightingOracle`] here, for the irradiance-driven methods.
+//! The irradiance-driven methods ([`Method::SpawnMerge`], [`Method::GradientAscent`]) need
+//! light: [`place`] takes a [`LightingOracle`] for them (probe-eval's `CaptureOracle` wires
+//! probe-capture's shading into it; an engine can pass its own lighting).
+//!
+//! ```
+//! use probe_place::pipeline::{Method, Optimizer, PlaceOptions, place};
+//! use probe_scene::Scene;
+//!
+//! let scene = Scene::builtin("cornell")?;
+//! let mut options = PlaceOptions::new(Method::Sdf);
+//! options.optimize = Some(Optimizer::Gibbs);
+//! options.iterations = 3;
+//! options.atlas_texels = 2000;
+//! let placed = place(&scene, &options, None)?;
+//! assert!(!placed.probes.is_empty());
+//! assert_eq!(placed.probes.method, "sdf+gibbs");
+//! assert_eq!(placed.report.probes_inside_geometry, 0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use std::time::Instant;
 
-use glam::Vec3;
-use probe_capture::{Environment, Rng, Shader};
-use probe_place::{
+use crate::{
     Atlas, AtlasParams, BackfaceVote, ClassifyParams, CoverParams, DescentParams, GibbsParams,
     GradientAscentParams, IterationRecord, LightingOracle, MedialParams, PlacementReport, ProbeSet,
     RegularGrid, SdfParams, SpawnMergeParams, VoxelFreeSpace, VoxelGrid, classify_grid, descend,
     free_space_grid, gibbs, gradient_ascent, medial_candidates, minimal_cover, sdf_candidates,
     spawn_and_merge,
 };
-use probe_scene::{Ray, Scene};
+use glam::Vec3;
+use probe_scene::Scene;
 use serde_json::json;
 
 /// Why a placement failed: the stage and its error.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlaceError {
     /// Candidate generation (grid, SDF, medial axis, voxels) failed.
     #[error("candidates: {0}")]
-    Candidates(#[from] probe_place::CandidateError),
+    Candidates(#[from] crate::CandidateError),
     /// The visibility atlas could not be built.
     #[error("visibility atlas: {0}")]
-    Atlas(#[from] probe_place::AtlasError),
+    Atlas(#[from] crate::AtlasError),
     /// The optimiser refused its input.
     #[error("optimisation: {0}")]
-    Optimize(#[from] probe_place::OptimizeError),
+    Optimize(#[from] crate::OptimizeError),
     /// The minimal cover failed.
     #[error("minimal set: {0}")]
-    Minimal(#[from] probe_place::MinimalSetError),
+    Minimal(#[from] crate::MinimalSetError),
     /// An irradiance-driven method failed.
     #[error("irradiance placement: {0}")]
-    Irradiance(#[from] probe_place::IrradianceError),
-    /// The lighting could not be set up for the oracle.
-    #[error("lighting oracle: {0}")]
-    Shader(#[from] probe_capture::ShaderError),
-    /// A parameter is out of range.
+    Irradiance(#[from] crate::IrradianceError),
+    /// An irradiance-driven method was asked for without a lighting oracle. Fix: pass a
+    /// [`LightingOracle`] to [`place`] (probe-eval's `CaptureOracle` shades the scene with
+    /// probe-capture), or choose a geometric method.
+    #[error("{method} needs a lighting oracle: pass one to place(), or choose a geometric method")]
+    NoOracle {
+        /// The method.
+        method: String,
+    },
+    /// A parameter is out of range. Fix: give a value in the range named.
     #[error("invalid {parameter} {value}: {reason}")]
     Invalid {
         /// The parameter.
@@ -51,7 +74,8 @@ pub enum PlaceError {
         /// What is accepted.
         reason: &'static str,
     },
-    /// The method produced no probe (a scene with no free space).
+    /// The method produced no probe (a scene with no free space). Fix: check the scene has
+    /// room inside its bounds, or use a grid.
     #[error("{method} placed no probe in {scene}: the scene has no free space the method can use")]
     NoProbes {
         /// The method.
@@ -93,6 +117,11 @@ impl Method {
             Method::GradientAscent => "gradient-ascent".into(),
             Method::Minimal => "minimal".into(),
         }
+    }
+
+    /// Whether the method is driven by irradiance and so needs a [`LightingOracle`].
+    pub fn needs_lighting(&self) -> bool {
+        matches!(self, Method::SpawnMerge | Method::GradientAscent)
     }
 }
 
@@ -164,81 +193,13 @@ pub struct Placement {
     pub atlas_seconds: f64,
 }
 
-/// The lighting oracle of seed 002's methods, from probe-capture's shading: irradiance on a
-/// small surface by Monte-Carlo integration of the shaded radiance arriving over the
-/// hemisphere (cosine-weighted, `samples` rays, seeded by the point).
-pub struct CaptureOracle<'s> {
-    shader: Shader<'s>,
-    samples: u32,
-    seed: u64,
-}
-
-impl<'s> CaptureOracle<'s> {
-    /// An oracle over `scene` lit by its default environment (direct light plus `bounces`).
-    ///
-    /// # Errors
-    /// [`PlaceError::Shader`] if the lighting is refused.
-    pub fn new(
-        scene: &'s Scene,
-        bounces: u32,
-        samples: u32,
-        seed: u64,
-    ) -> Result<Self, PlaceError> {
-        Ok(Self {
-            shader: Shader::new(scene, Environment::for_scene(scene), bounces)?,
-            samples: samples.max(1),
-            seed,
-        })
-    }
-}
-
-impl LightingOracle for CaptureOracle<'_> {
-    fn irradiance(&self, point: Vec3) -> Vec3 {
-        [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
-            .into_iter()
-            .map(|n| self.irradiance_towards(point, n))
-            .fold(Vec3::ZERO, |best, e| {
-                if e.dot(Vec3::ONE) > best.dot(Vec3::ONE) {
-                    e
-                } else {
-                    best
-                }
-            })
-    }
-
-    fn irradiance_towards(&self, point: Vec3, normal: Vec3) -> Vec3 {
-        let Some(normal) = normal.try_normalize() else {
-            return Vec3::ZERO;
-        };
-        let key = [
-            u64::from(point.x.to_bits()),
-            u64::from(point.y.to_bits()),
-            u64::from(point.z.to_bits()),
-            u64::from(normal.x.to_bits()) ^ (u64::from(normal.y.to_bits()) << 32),
-            u64::from(normal.z.to_bits()),
-        ];
-        let mut rng = Rng::for_key(self.seed, &key);
-        let (tangent, bitangent) = normal.any_orthonormal_pair();
-        let mut sum = Vec3::ZERO;
-        for _ in 0..self.samples {
-            // Cosine-weighted direction: the estimator of E = ∫ L cos dω is π · mean(L).
-            let u = rng.next_vec2();
-            let r = u.x.sqrt();
-            let phi = std::f32::consts::TAU * u.y;
-            let direction = tangent * (r * phi.cos())
-                + bitangent * (r * phi.sin())
-                + normal * (1.0 - u.x).max(0.0).sqrt();
-            let (_, radiance) = self.shader.trace(&Ray::new(point, direction), &mut rng);
-            sum += radiance;
-        }
-        sum * (std::f32::consts::PI / self.samples as f32)
-    }
-}
-
 /// Adds candidates to `chosen`, each time the one that raises the atlas reward R(P) (best-probe
 /// aggregation, default weights) the most, until `budget` probes or no candidate adds anything.
 /// Greedy on the marginal gain `Σ_texels max(0, score − best score so far)`.
-fn fill_to_budget(
+///
+/// [`place`] uses it for [`Method::Minimal`] with a budget. Candidates already in `chosen` are
+/// not added twice; the result keeps `chosen` first, in its order.
+pub fn fill_to_budget(
     atlas: &Atlas<'_>,
     candidates: &[Vec3],
     chosen: Vec<Vec3>,
@@ -248,7 +209,7 @@ fn fill_to_budget(
     if chosen.len() >= budget {
         return chosen;
     }
-    let weights = probe_place::RewardWeights::default();
+    let weights = crate::RewardWeights::default();
     let scale = atlas.distance_scale();
     let mut best = vec![0.0f32; atlas.samples().len()];
     for views in atlas.views_of_probes(&chosen) {
@@ -312,10 +273,16 @@ fn positive(parameter: &'static str, value: f32) -> Result<f32, PlaceError> {
 }
 
 /// Places probes in `scene` as `options` say, and measures the result on a visibility atlas.
+/// `lighting` drives the irradiance-driven methods and is not used by the others.
 ///
 /// # Errors
-/// [`PlaceError`] naming the stage or the parameter.
-pub fn place(scene: &Scene, options: &PlaceOptions) -> Result<Placement, PlaceError> {
+/// [`PlaceError`] naming the stage or the parameter; [`PlaceError::NoOracle`] when the method
+/// [needs lighting](Method::needs_lighting) and `lighting` is `None`.
+pub fn place(
+    scene: &Scene,
+    options: &PlaceOptions,
+    lighting: Option<&dyn LightingOracle>,
+) -> Result<Placement, PlaceError> {
     if !(options.coverage > 0.0 && options.coverage <= 1.0) {
         return Err(PlaceError::Invalid {
             parameter: "coverage",
@@ -331,7 +298,7 @@ pub fn place(scene: &Scene, options: &PlaceOptions) -> Result<Placement, PlaceEr
         });
     }
     if scene.triangles().is_empty() {
-        return Err(probe_place::CandidateError::EmptyScene {
+        return Err(crate::CandidateError::EmptyScene {
             scene: scene.name().to_owned(),
         }
         .into());
@@ -391,20 +358,22 @@ pub fn place(scene: &Scene, options: &PlaceOptions) -> Result<Placement, PlaceEr
             medial_candidates(scene, &params)?.probes.positions
         }
         Method::SpawnMerge | Method::GradientAscent => {
-            let oracle = CaptureOracle::new(scene, 1, 64, options.seed)?;
+            let oracle = lighting.ok_or_else(|| PlaceError::NoOracle {
+                method: options.method.name(),
+            })?;
             let spacing = longest / 12.0;
             parameters.insert("spacing".into(), json!(spacing));
             let placed = if options.method == Method::SpawnMerge {
                 spawn_and_merge(
                     scene,
-                    &oracle,
+                    oracle,
                     &free,
                     &SpawnMergeParams::with_spacing(spacing),
                 )?
             } else {
                 let mut params = GradientAscentParams::with_spacing(spacing);
                 params.seed = options.seed;
-                gradient_ascent(scene, &oracle, &free, &params)?
+                gradient_ascent(scene, oracle, &free, &params)?
             };
             parameters.insert("lit".into(), json!(placed.lit));
             parameters.insert("unlit".into(), json!(placed.unlit));

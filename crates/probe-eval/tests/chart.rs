@@ -1,6 +1,6 @@
 //! Charts written as PNG and SVG: sizes, content, Pareto fronts and log axes.
 
-use probe_cli::chart::{
+use probe_eval::chart::{
     ChartError, ChartSpec, Point, Series, SeriesStyle, pareto_front, write_chart,
 };
 use std::collections::HashSet;

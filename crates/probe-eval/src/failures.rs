@@ -55,12 +55,12 @@ use probe_trace_gpu::{
 };
 use serde::Serialize;
 
-use super::EvalError;
-use super::pipeline::{
-    BuiltIndex, Device, EvalView, ViewSettings, build_index, light_field, mean_square,
-    texel_footprint,
-};
-use crate::placement::{CaptureOracle, Method, PlaceOptions, place};
+use probe_place::pipeline::{Method, PlaceOptions, place};
+
+use crate::EvalError;
+use crate::lighting::CaptureOracle;
+use crate::metrics::{mean_square, texel_footprint};
+use crate::pipeline::{BuiltIndex, Device, EvalView, ViewSettings, build_index, light_field};
 
 /// The names of the cases, in the order they run.
 pub const FAILURE_CASES: [&str; 11] = [
@@ -77,7 +77,8 @@ pub const FAILURE_CASES: [&str; 11] = [
     "degenerate-input",
 ];
 
-/// The shared scene files some cases load (`probe_testdata` locates them in tests).
+/// The shared scene files some cases load (the workspace's tests take them from
+/// `probe_testdata`'s directory).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SharedScenes {
     /// One double-sided quad of zero thickness (`TwoSidedPlane.glb`).
@@ -92,16 +93,22 @@ pub struct SharedScenes {
 }
 
 impl SharedScenes {
-    /// The files under `dir`, laid out as `../shared/scenes` is (`probe_testdata`'s names).
+    /// The files under `dir`, laid out as the workspace's shared scenes folder is
+    /// (`../shared/scenes` beside a checkout):
+    /// `failure_cases/two_sided_plane/TwoSidedPlane.glb`,
+    /// `cornell_box/CornellBox-Original.gltf`, `godot_room/room.glb`, and the refused
+    /// `failure_cases/invalid_box_with_infinites/BoxWithInfinites.glb`,
+    /// `failure_cases/invalid_index_out_of_range/IndexOutOfRange.gltf` and
+    /// `sponza/Sponza.gltf`.
     pub fn in_dir(dir: &std::path::Path) -> SharedScenes {
         SharedScenes {
-            two_sided_plane: dir.join(probe_testdata::TWO_SIDED_PLANE),
-            cornell_box: dir.join(probe_testdata::CORNELL_BOX),
-            godot_room: dir.join(probe_testdata::GODOT_ROOM),
+            two_sided_plane: dir.join("failure_cases/two_sided_plane/TwoSidedPlane.glb"),
+            cornell_box: dir.join("cornell_box/CornellBox-Original.gltf"),
+            godot_room: dir.join("godot_room/room.glb"),
             invalid: [
-                probe_testdata::INVALID_INFINITES,
-                probe_testdata::INVALID_INDEX_OUT_OF_RANGE,
-                probe_testdata::SPONZA_AS_PUBLISHED,
+                "failure_cases/invalid_box_with_infinites/BoxWithInfinites.glb",
+                "failure_cases/invalid_index_out_of_range/IndexOutOfRange.gltf",
+                "sponza/Sponza.gltf",
             ]
             .map(|name| dir.join(name))
             .to_vec(),
@@ -932,7 +939,7 @@ fn boxes_grid(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseError> {
                 atlas_texels: 4000,
                 seed: o.seed,
                 ..PlaceOptions::new(method)
-            },
+            }, None,
         )?;
         let positions = placement.probes.positions.clone();
         let baked = bake_probes(&scene, &positions, o, o.resolution)?;
@@ -1273,7 +1280,7 @@ fn two_sided_plane(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseErr
             &PlaceOptions {
                 atlas_texels: 2000,
                 ..PlaceOptions::new(Method::Sdf)
-            },
+            }, None,
         )
         .map(|p| {
             p.probes
@@ -2227,7 +2234,7 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
             &PlaceOptions {
                 budget: Some(0),
                 ..PlaceOptions::new(Method::Sdf)
-            },
+            }, None,
         )
     });
     r.refused("coverage 0 → place", || {
@@ -2236,7 +2243,7 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
             &PlaceOptions {
                 coverage: 0.0,
                 ..PlaceOptions::new(Method::Sdf)
-            },
+            }, None,
         )
     });
     r.refused("budget 0 → minimal cover", || -> Result<(), CaseError> {
@@ -2302,7 +2309,7 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
         ),
         Ok(empty) => {
             r.refused("empty scene → place (grid)", || {
-                place(&empty, &PlaceOptions::new(Method::Grid([2, 2, 2])))
+                place(&empty, &PlaceOptions::new(Method::Grid([2, 2, 2])), None)
             });
             r.refused("empty scene → voxels", || VoxelGrid::build(&empty, 0.1));
             r.refused("empty scene → sdf", || {

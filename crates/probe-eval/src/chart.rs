@@ -253,7 +253,7 @@ pub enum ChartError {
 /// nothing). `-0.0` and `0.0` compare equal. Runs in `O(n log n)`.
 ///
 /// ```
-/// use probe_cli::chart::pareto_front;
+/// use probe_eval::chart::pareto_front;
 /// // (time, error): 1 and 3 are dominated by 0 and 2; 4 is NaN.
 /// let points = [(1.0, 5.0), (2.0, 6.0), (3.0, 1.0), (4.0, 1.0), (f64::NAN, 0.0)];
 /// assert_eq!(pareto_front(&points), vec![0, 2]);

@@ -1,7 +1,7 @@
 //! Top views: size, probes at their projected pixels, and the cut through the colonnade roof.
 
 use glam::Vec3;
-use probe_cli::top_view::{TopViewError, TopViewOptions, render_top_view, write_top_view};
+use probe_eval::top_view::{TopViewError, TopViewOptions, render_top_view, write_top_view};
 use probe_scene::Scene;
 
 fn keep_dir() -> Option<std::path::PathBuf> {
@@ -236,7 +236,7 @@ fn renders_are_deterministic() {
 /// Sponza from above, cut at 12 m (above the gallery floor at 9.6 m): decodes at the given
 /// width, shows the cut walls and columns as dark sections, and says how long it took.
 /// About 10 s in the dev profile; run with
-/// `cargo test --release -p probe-cli --test top_view -- --ignored --nocapture sponza`.
+/// `cargo test --release -p probe-eval --test top_view -- --ignored --nocapture sponza`.
 #[test]
 #[ignore = "loads Sponza (262k triangles): run in release, see the comment"]
 fn sponza_top_view_timing() {

@@ -1,0 +1,132 @@
+//! `probe_place::pipeline`: the end-to-end placement (method, budget or coverage cut,
+//! optimiser, report) that `probes place` and probe-eval run.
+
+use glam::Vec3;
+use probe_place::pipeline::{Method, Optimizer, PlaceError, PlaceOptions, fill_to_budget, place};
+use probe_place::{Atlas, AtlasParams, BackfaceVote, PointLightOracle, free_space_grid};
+use probe_scene::Scene;
+
+fn options(method: Method) -> PlaceOptions {
+    PlaceOptions {
+        atlas_texels: 1500,
+        ..PlaceOptions::new(method)
+    }
+}
+
+#[test]
+fn a_grid_is_placed_whole_and_named() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let placed = place(&scene, &options(Method::Grid([3, 2, 2])), None).unwrap();
+    assert_eq!(placed.probes.len(), 12);
+    assert_eq!(placed.full_grid, Some([3, 2, 2]));
+    assert_eq!(placed.probes.method, "grid-3x2x2");
+    assert_eq!(placed.report.method, "grid-3x2x2");
+    assert!(placed.history.is_none());
+    assert!(placed.report.coverage > 0.0 && placed.report.coverage <= 1.0);
+}
+
+#[test]
+fn a_budget_cuts_the_set_and_an_optimiser_records_its_history() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let placed = place(
+        &scene,
+        &PlaceOptions {
+            budget: Some(3),
+            optimize: Some(Optimizer::Gibbs),
+            iterations: 2,
+            ..options(Method::Grid([3, 3, 3]))
+        },
+        None,
+    )
+    .unwrap();
+    assert!(placed.probes.len() <= 3);
+    assert_eq!(placed.full_grid, None, "a cut grid is no longer a full grid");
+    assert_eq!(placed.probes.method, "grid-3x3x3+gibbs@3");
+    assert!(placed.history.is_some_and(|h| !h.is_empty()));
+}
+
+#[test]
+fn the_same_seed_gives_the_same_probes() {
+    let scene = Scene::builtin("boxes").unwrap();
+    let run = || {
+        place(
+            &scene,
+            &PlaceOptions {
+                seed: 5,
+                ..options(Method::Medial)
+            },
+            None,
+        )
+        .unwrap()
+        .probes
+        .positions
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn irradiance_methods_need_an_oracle_and_run_with_one() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let error = place(&scene, &options(Method::SpawnMerge), None).unwrap_err();
+    assert!(
+        matches!(&error, PlaceError::NoOracle { method } if method == "spawn-merge"),
+        "{error}"
+    );
+    assert!(Method::SpawnMerge.needs_lighting() && !Method::Sdf.needs_lighting());
+    let centre = scene.bounds().center();
+    let light = PointLightOracle::new(&scene, centre, Vec3::splat(5.0));
+    let placed = place(&scene, &options(Method::SpawnMerge), Some(&light)).unwrap();
+    assert!(!placed.probes.is_empty());
+    assert!(placed.probes.parameters.contains_key("lit"));
+}
+
+#[test]
+fn bad_parameters_are_refused_by_name() {
+    let scene = Scene::builtin("cornell").unwrap();
+    for (options, parameter) in [
+        (
+            PlaceOptions {
+                coverage: 1.5,
+                ..options(Method::Sdf)
+            },
+            "coverage",
+        ),
+        (
+            PlaceOptions {
+                budget: Some(0),
+                ..options(Method::Sdf)
+            },
+            "budget",
+        ),
+        (
+            PlaceOptions {
+                step: Some(-1.0),
+                ..options(Method::Sdf)
+            },
+            "step",
+        ),
+    ] {
+        match place(&scene, &options, None) {
+            Err(PlaceError::Invalid { parameter: p, .. }) => assert_eq!(p, parameter),
+            other => panic!("{parameter}: expected a refusal, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn fill_to_budget_adds_only_probes_that_add_something() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let free = BackfaceVote::new(&scene);
+    let pool = free_space_grid(&free, 0.1);
+    let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 800), &pool).unwrap();
+    let start = vec![pool[0]];
+    let filled = fill_to_budget(&atlas, &pool, start.clone(), 4);
+    assert_eq!(filled.len(), 4);
+    assert_eq!(filled[0], pool[0], "the chosen probes come first");
+    for (i, a) in filled.iter().enumerate() {
+        assert!(!filled[i + 1..].contains(a), "candidate {a} chosen twice");
+    }
+    assert!(atlas.coverage(&filled) >= atlas.coverage(&start));
+    // A budget already met adds nothing.
+    assert_eq!(fill_to_budget(&atlas, &pool, filled.clone(), 2), filled);
+}
