@@ -939,7 +939,8 @@ fn boxes_grid(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseError> {
                 atlas_texels: 4000,
                 seed: o.seed,
                 ..PlaceOptions::new(method)
-            }, None,
+            },
+            None,
         )?;
         let positions = placement.probes.positions.clone();
         let baked = bake_probes(&scene, &positions, o, o.resolution)?;
@@ -1280,7 +1281,8 @@ fn two_sided_plane(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseErr
             &PlaceOptions {
                 atlas_texels: 2000,
                 ..PlaceOptions::new(Method::Sdf)
-            }, None,
+            },
+            None,
         )
         .map(|p| {
             p.probes
@@ -2234,7 +2236,8 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
             &PlaceOptions {
                 budget: Some(0),
                 ..PlaceOptions::new(Method::Sdf)
-            }, None,
+            },
+            None,
         )
     });
     r.refused("coverage 0 → place", || {
@@ -2243,7 +2246,8 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
             &PlaceOptions {
                 coverage: 0.0,
                 ..PlaceOptions::new(Method::Sdf)
-            }, None,
+            },
+            None,
         )
     });
     r.refused("budget 0 → minimal cover", || -> Result<(), CaseError> {

@@ -122,10 +122,10 @@ pub enum EvalError {
     Place(#[from] probe_place::pipeline::PlaceError),
     /// A chart could not be drawn.
     #[error("chart: {0}")]
-    Chart(#[from] crate::chart::ChartError),
+    Chart(#[from] chart::ChartError),
     /// A top view could not be drawn.
     #[error("top view: {0}")]
-    TopView(#[from] crate::top_view::TopViewError),
+    TopView(#[from] top_view::TopViewError),
     /// The configuration is invalid.
     #[error("configuration {}: {reason}", path.as_ref().map_or("(defaults)".to_owned(), |p| p.display().to_string()))]
     Config {

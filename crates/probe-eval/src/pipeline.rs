@@ -540,4 +540,3 @@ pub fn trace_view(
     };
     Ok(Some((metrics, image)))
 }
-

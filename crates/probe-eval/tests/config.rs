@@ -33,9 +33,13 @@ fn shared_scenes_in_dir_follow_the_shared_layout() {
         .to_vec()
     );
     if probe_testdata::scenes_available() {
-        for file in [&shared.two_sided_plane, &shared.cornell_box, &shared.godot_room]
-            .into_iter()
-            .chain(&shared.invalid)
+        for file in [
+            &shared.two_sided_plane,
+            &shared.cornell_box,
+            &shared.godot_room,
+        ]
+        .into_iter()
+        .chain(&shared.invalid)
         {
             assert!(file.is_file(), "{} is missing", file.display());
         }
@@ -65,10 +69,7 @@ scene = "/abs/room.glb"
     assert_eq!(config.scenes_dir, Some(config_dir.join("../scenes")));
     let scenes: Vec<&str> = config.scenes.iter().map(|s| s.scene.as_str()).collect();
     assert_eq!(scenes[0], "builtin:cornell");
-    assert_eq!(
-        PathBuf::from(scenes[1]),
-        config_dir.join("rooms/room.glb")
-    );
+    assert_eq!(PathBuf::from(scenes[1]), config_dir.join("rooms/room.glb"));
     assert_eq!(scenes[2], "/abs/room.glb");
 }
 
@@ -100,5 +101,8 @@ fn an_unreadable_configuration_is_refused_naming_the_file() {
     let path = dir.path().join("eval.toml");
     std::fs::write(&path, "no_such_key = 1\n").unwrap();
     let error = EvalConfig::load(&path).unwrap_err().to_string();
-    assert!(error.contains("eval.toml") && error.contains("no_such_key"), "{error}");
+    assert!(
+        error.contains("eval.toml") && error.contains("no_such_key"),
+        "{error}"
+    );
 }

@@ -165,7 +165,6 @@ impl ProbeGrid {
             .then_some(grid)
     }
 
-
     /// All probe positions in index order.
     pub fn positions(&self) -> Vec<Vec3> {
         (0..self.probe_count() as u32)

@@ -5,14 +5,23 @@ use glam::Vec3;
 use probe_index::ProbeGrid;
 
 fn grid(counts: [u32; 3]) -> ProbeGrid {
-    ProbeGrid::new(Vec3::new(-2.5, 0.125, 7.0), Vec3::new(0.5, 1.25, 0.75), counts).unwrap()
+    ProbeGrid::new(
+        Vec3::new(-2.5, 0.125, 7.0),
+        Vec3::new(0.5, 1.25, 0.75),
+        counts,
+    )
+    .unwrap()
 }
 
 #[test]
 fn a_grid_is_detected_with_its_origin_spacing_and_counts() {
     for counts in [[2, 2, 2], [4, 2, 4], [3, 5, 2], [7, 3, 6]] {
         let expected = grid(counts);
-        assert_eq!(ProbeGrid::detect(&expected.positions()), Some(expected), "{counts:?}");
+        assert_eq!(
+            ProbeGrid::detect(&expected.positions()),
+            Some(expected),
+            "{counts:?}"
+        );
     }
 }
 

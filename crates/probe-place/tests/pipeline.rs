@@ -40,7 +40,10 @@ fn a_budget_cuts_the_set_and_an_optimiser_records_its_history() {
     )
     .unwrap();
     assert!(placed.probes.len() <= 3);
-    assert_eq!(placed.full_grid, None, "a cut grid is no longer a full grid");
+    assert_eq!(
+        placed.full_grid, None,
+        "a cut grid is no longer a full grid"
+    );
     assert_eq!(placed.probes.method, "grid-3x3x3+gibbs@3");
     assert!(placed.history.is_some_and(|h| !h.is_empty()));
 }
