@@ -22,6 +22,7 @@ use serde_json::json;
 
 /// Why a placement failed: the stage and its error.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlaceError {
     /// Candidate generation (grid, SDF, medial axis, voxels) failed.
     #[error("candidates: {0}")]

@@ -168,6 +168,16 @@
 //! land in the dark or outside free space (seed 002's second-order rule) and halves the step
 //! when it overshoots; unlit probes become `k` k-means centres. Every random choice takes a
 //! seed.
+//!
+//! # Features
+//!
+//! - `parallel` (default): voxelization, distance fields, atlases, clustering and optimisation
+//!   spread over rayon's thread pool. Without it they run on the calling thread and give the
+//!   same results.
+//!
+//! The crate depends on `probe-scene` without its glTF loader: it needs geometry and ray
+//! casting only. Load files through `probe-scene` (its default `gltf` feature) in the crate that
+//! calls this one.
 
 #![forbid(unsafe_code)]
 
@@ -179,6 +189,7 @@ mod irradiance;
 mod medial;
 mod minimal;
 mod optimize;
+mod par;
 mod probes;
 mod report;
 mod sdf;

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 
 /// Everything an evaluation step can fail with; each variant names the stage.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum EvalError {
     /// A scene could not be loaded.
     #[error(transparent)]

@@ -9,9 +9,9 @@ use std::ops::{Add, Mul};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 use crate::error::{DelaunayError, QueryError, ValidationError};
+use crate::par::*;
 use crate::predicates::{P3, in_sphere, orient};
 use build::{INF, StartFailure, ghost_face_order};
 
