@@ -425,7 +425,9 @@ impl Tetrahedralization {
     /// previous result's tetrahedron for coherent queries). The walk steps across the face with
     /// the most negative barycentric coordinate, never back into a tetrahedron it has visited,
     /// so it ends even on faces, edges and vertices. Points outside the hull get the nearest
-    /// hull face and weights clamped onto it.
+    /// hull face and weights clamped onto it. The f32 rows only steer: the walk stops where the
+    /// exact orientation test puts `p` inside, and a walk with nowhere left to go (possible on
+    /// nearly flat sets) finishes by an exact scan of the tetrahedra.
     ///
     /// # Errors
     /// [`QueryError::NonFinitePosition`] if `p` has a NaN or infinite coordinate.
