@@ -7,9 +7,9 @@ use probe_octa::{
     FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, Texel, irradiance_map, lobe_mean,
 };
 use probe_scene::{Ray, Scene};
-use rayon::prelude::*;
 
 use crate::environment::Environment;
+use crate::par::*;
 use crate::rng::Rng;
 use crate::shading::{Shader, ShaderError};
 
@@ -84,6 +84,7 @@ impl Default for BakeSettings {
 
 /// Why a bake (or a geometry capture) was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum BakeError {
     /// A setting is out of range. Fix: see the field's documentation in [`BakeSettings`]
     /// (the message names the field and the accepted range).

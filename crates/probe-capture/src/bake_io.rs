@@ -31,6 +31,7 @@ const SH_FILE: &str = "sh.exr";
 
 /// Why a bake could not be saved. Nothing at the destination is lost in any case.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum BakeSaveError {
     /// A file or directory could not be created, written or renamed. Fix: check the path,
     /// the permissions and the free space.
@@ -70,6 +71,7 @@ pub enum BakeSaveError {
 
 /// Why a bake could not be loaded.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum BakeLoadError {
     /// A file could not be read. Fix: check that the directory is a complete bake (the
     /// manifest lists the files) and readable.

@@ -5,10 +5,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Vec2, Vec3};
 use probe_scene::{Camera, Hit, Ray, Scene};
-use rayon::prelude::*;
 
 use crate::bake::Progress;
 use crate::image::Image;
+use crate::par::*;
 use crate::render::RenderError;
 use crate::rng::{Rng, orthonormal_basis};
 use crate::shading::{Shader, normals_towards};

@@ -10,6 +10,7 @@ use crate::exr_io::{self, ExrLayer};
 
 /// Why an image could not be written, read or compared.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ImageError {
     /// A file could not be created, renamed or read. Fix: check the path and permissions.
     #[error("{}: {source}", path.display())]

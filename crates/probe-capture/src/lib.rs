@@ -71,7 +71,9 @@
 //!   the work item ([`Rng::for_key`]); sums over texels run in a fixed order. Same inputs and
 //!   seed give the same bytes on any number of threads.
 //! - **Parallelism**: rayon over probes and texel rows (bake) and image rows or ray blocks
-//!   (render). The library never prints; long operations take a progress callback.
+//!   (render), behind the default `parallel` feature; without it the same work runs on the
+//!   calling thread and gives the same bytes. The library never prints; long operations take
+//!   a progress callback.
 
 #![forbid(unsafe_code)]
 
@@ -82,6 +84,7 @@ mod environment;
 mod evaluation;
 mod exr_io;
 mod image;
+mod par;
 mod preview;
 mod render;
 mod rng;

@@ -9,6 +9,7 @@ use crate::image::{Image, ImageError, write_png_rgb8};
 
 /// Why previews could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PreviewError {
     /// The probe index is past the last probe. Fix: pass an index below `probes`.
     #[error("probe {probe} does not exist; the bake has {probes} probes")]

@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Vec2, Vec3};
 use probe_scene::{Camera, Scene};
-use rayon::prelude::*;
 
 use crate::bake::Progress;
 use crate::environment::Environment;
@@ -13,11 +12,13 @@ use crate::evaluation::{
     PIXEL_STREAM, Reflection, accumulate_rays, reflection_rays, render_gbuffer, trace_reference,
 };
 use crate::image::Image;
+use crate::par::*;
 use crate::rng::Rng;
 use crate::shading::{Shader, ShaderError};
 
 /// Why a render (or an evaluation-ray step) was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RenderError {
     /// A setting is out of range. Fix: see the field's documentation in [`RenderSettings`]
     /// or the function's (the message names the parameter and the accepted range).

@@ -15,6 +15,7 @@ pub const RUSSIAN_ROULETTE_BOUNCES: u32 = 3;
 
 /// Why a [`Shader`] could not be made.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ShaderError {
     /// A field of the [`Environment`] is unusable. Fix: give finite, non-negative colours
     /// and illuminance and a non-zero sun direction.

@@ -2,6 +2,7 @@
 
 /// Everything a `probes` command can fail with.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum CliError {
     /// The scene could not be loaded.
     #[error(transparent)]

@@ -4,12 +4,12 @@
 use std::collections::HashMap;
 
 use glam::{IVec3, Vec3};
-use rayon::prelude::*;
 
 use crate::delaunay::Tetrahedralization;
 use crate::error::EdgeCastError;
 use crate::geometry::SceneGeometry;
 use crate::nearest::NearestProbe;
+use crate::par::*;
 
 /// The conditions of seed 002 §3.2.2 for inserting a probe where an edge hits geometry.
 #[derive(Clone, Debug, PartialEq)]

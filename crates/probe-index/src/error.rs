@@ -5,6 +5,7 @@ use thiserror::Error;
 
 /// Why a Delaunay tetrahedralization could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum DelaunayError {
     /// An input point has a NaN or infinite coordinate.
     ///
@@ -59,6 +60,7 @@ pub enum DelaunayError {
 
 /// Why a point query (location, interpolation, selection) was refused.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum QueryError {
     /// The query position has a NaN or infinite coordinate.
     ///
@@ -94,6 +96,7 @@ pub enum QueryError {
 /// What [`crate::Tetrahedralization::validate`] found wrong (should never happen; a bug report
 /// with the input points is welcome).
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum ValidationError {
     /// A tetrahedron is flat or inverted.
     ///
@@ -143,6 +146,7 @@ pub enum ValidationError {
 
 /// Why a regular probe grid was refused.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum GridError {
     /// An axis has fewer than two probes, so no 8-probe cage exists.
     ///
@@ -184,6 +188,7 @@ pub enum GridError {
 
 /// Why Voronoi-sphere neighbour textures could not be baked.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum NeighbourError {
     /// The octahedral resolution is zero or too large.
     ///
@@ -198,6 +203,7 @@ pub enum NeighbourError {
 
 /// Why a sparse voxel octree could not be built.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum SvoError {
     /// The requested depth is outside the supported range.
     ///
@@ -239,6 +245,7 @@ pub enum SvoError {
 
 /// Why the edge ray casts of seed 002 §3.2.2 could not run.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum EdgeCastError {
     /// A fraction parameter is outside its range.
     ///
@@ -260,6 +267,7 @@ pub enum EdgeCastError {
 
 /// Why [`crate::ProbeIndex::build`] failed; names the stage.
 #[derive(Debug, Clone, PartialEq, Error)]
+#[non_exhaustive]
 pub enum IndexError {
     /// The tetrahedralization failed.
     ///

@@ -16,7 +16,12 @@
 //! - [`ProbeIndex`] builds them all and returns an [`IndexReport`] of counts, bytes and times.
 //!
 //! The crate needs no scene crate: scene queries go through the [`SceneGeometry`] trait. With
-//! the `scene` feature, `probe_scene::Scene` implements it (BVH closest-hit and any-hit).
+//! the `scene` feature, `probe_scene::Scene` implements it (BVH closest-hit and any-hit;
+//! `probe-scene` comes without its glTF loader).
+//!
+//! Features: `scene` (off by default, as above) and `parallel` (default): octree builds,
+//! Voronoi tables, edge casts and the Delaunay bookkeeping spread over rayon's thread pool.
+//! Without `parallel` they run on the calling thread and give the same results.
 //!
 //! # Example
 //!
@@ -83,6 +88,7 @@ mod geometry;
 mod grid;
 mod index;
 mod nearest;
+mod par;
 mod predicates;
 mod rng;
 mod selector;

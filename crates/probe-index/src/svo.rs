@@ -18,11 +18,11 @@ use std::time::{Duration, Instant};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 use crate::error::SvoError;
 use crate::geometry::{SceneGeometry, triangle_overlaps_box};
 use crate::nearest::NearestProbe;
+use crate::par::*;
 use crate::rng::SplitMix64;
 use crate::selector::{ProbeCandidates, ProbeQuery, ProbeSelector};
 use crate::voronoi::NO_PROBE;

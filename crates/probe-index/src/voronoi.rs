@@ -5,11 +5,11 @@
 
 use glam::Vec3;
 use probe_octa::OctaLayout;
-use rayon::prelude::*;
 
 use crate::delaunay::Tetrahedralization;
 use crate::error::NeighbourError;
 use crate::nearest::NearestProbe;
+use crate::par::*;
 use crate::selector::{ProbeCandidates, ProbeQuery, ProbeSelector};
 
 /// Sentinel for an empty neighbour slot (a probe with fewer than 4 Delaunay neighbours).

@@ -8,6 +8,7 @@ use crate::map::{OctaMap, Texel};
 
 /// Why a filtering or resampling operation was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum FilterError {
     /// The output (or input) resolution is unusable; see [`ResolutionError`].
     #[error(transparent)]

@@ -9,6 +9,7 @@ pub const MAX_RESOLUTION: u32 = 16_384;
 
 /// Why an octahedral or cube-map resolution was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum ResolutionError {
     /// The resolution was 0. Fix: pass at least 1 (a useful octahedral map has 8 or more).
     #[error("`{parameter}` is 0; a map needs at least 1 texel per side")]

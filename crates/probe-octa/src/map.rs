@@ -57,6 +57,7 @@ impl<const K: usize> Texel for [f32; K] {
 
 /// Why map data was refused.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum MapError {
     /// The resolution is unusable; see [`ResolutionError`].
     #[error(transparent)]

@@ -20,6 +20,7 @@ pub enum FineRead {
 
 /// Why a pyramid could not be built or a level could not be given.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum PyramidError {
     /// The map's resolution is not a power of two (levels halve it). Fix: build the distance
     /// map at a power-of-two resolution.

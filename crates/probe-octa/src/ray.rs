@@ -7,6 +7,7 @@ use crate::octahedral::sign_not_zero;
 
 /// Why a ray could not be split.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RaySplitError {
     /// A component of `probe`, `origin` or `direction` is NaN or infinite. Fix: pass finite
     /// vectors (a ray to infinity uses `t_max = f32::INFINITY`, not an infinite origin).

@@ -2,9 +2,9 @@
 //! medial-axis generators.
 
 use crate::grid::inside_geometry;
+use crate::par::*;
 use glam::Vec3;
 use probe_scene::Scene;
-use rayon::prelude::*;
 
 /// How clusters became probes (for [`SdfCandidates`](crate::SdfCandidates) and
 /// [`MedialCandidates`](crate::MedialCandidates)).

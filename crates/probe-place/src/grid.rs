@@ -2,10 +2,10 @@
 //! the same grid with DDGI-style probe classification and relocation.
 
 use crate::candidate_error::{CandidateError, ValidRange, check_count_up_to, check_param};
+use crate::par::*;
 use crate::probes::{ProbeSet, json_f32};
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
-use rayon::prelude::*;
 use serde_json::{Map, Value};
 
 /// The most cells a regular grid may have along one axis.

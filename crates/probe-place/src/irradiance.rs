@@ -3,11 +3,11 @@
 //! [`LightingOracle`], so this crate needs no renderer.
 
 use crate::atlas::{FreeSpace, free_space_grid, hash64};
+use crate::par::*;
 use glam::Vec3;
 use probe_scene::{Ray, Scene};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 

@@ -175,6 +175,16 @@
 //! the minimal cover), an optional optimiser and an optional budget or coverage target, and
 //! measures the result on one visibility atlas, as `probes place` and probe-eval's sweep do;
 //! [`pipeline::fill_to_budget`] spends a budget left over after a cover.
+//!
+//! # Features
+//!
+//! - `parallel` (default): voxelization, distance fields, atlases, clustering and optimisation
+//!   spread over rayon's thread pool. Without it they run on the calling thread and give the
+//!   same results.
+//!
+//! The crate depends on `probe-scene` without its glTF loader: it needs geometry and ray
+//! casting only. Load files through `probe-scene` (its default `gltf` feature) in the crate that
+//! calls this one.
 
 #![forbid(unsafe_code)]
 
@@ -187,6 +197,7 @@ mod medial;
 mod minimal;
 mod optimize;
 pub mod pipeline;
+mod par;
 mod probes;
 mod report;
 mod sdf;

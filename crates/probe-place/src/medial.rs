@@ -6,6 +6,7 @@ use crate::candidate_error::{
     CandidateError, ValidRange, check_count, check_count_up_to, check_param,
 };
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
+use crate::par::*;
 use crate::probes::{ProbeSet, json_f32};
 use crate::sdf::sees;
 use crate::voxel::{VoxelGrid, VoxelState};
@@ -13,7 +14,6 @@ use glam::{Vec2, Vec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use probe_scene::Scene;
 use rand::{Rng, SeedableRng};
-use rayon::prelude::*;
 use serde_json::{Map, Value};
 use std::num::NonZeroUsize;
 

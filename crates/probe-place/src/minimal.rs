@@ -3,8 +3,8 @@
 
 use crate::atlas::{Atlas, FreeSpace, ProbeView};
 use crate::optimize::{GibbsParams, OptimizeError, Optimized, gibbs};
+use crate::par::*;
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;

@@ -3,10 +3,10 @@
 //! directions and acceptance `R_new / R_old` (Alg. 2).
 
 use crate::atlas::{Atlas, AtlasState, FreeSpace, ProbeView, RewardWeights};
+use crate::par::*;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Why an optimisation could not run.

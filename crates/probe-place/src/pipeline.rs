@@ -205,6 +205,7 @@ pub fn fill_to_budget(
     chosen: Vec<Vec3>,
     budget: usize,
 ) -> Vec<Vec3> {
+    #[cfg(feature = "parallel")]
     use rayon::prelude::*;
     if chosen.len() >= budget {
         return chosen;
@@ -223,29 +224,28 @@ pub fn fill_to_budget(
     let mut used: Vec<bool> = candidates.iter().map(|c| chosen.contains(c)).collect();
     let mut chosen = chosen;
     while chosen.len() < budget {
+        let gain = |(i, views): (usize, &Vec<crate::ProbeView>)| -> (usize, f64) {
+            let gain: f64 = views
+                .iter()
+                .map(|v| f64::from((weights.score(v, scale) - best[v.sample as usize]).max(0.0)))
+                .sum();
+            (i, gain)
+        };
+        // The largest gain, the lowest index among equals: the same pick in both builds.
+        let better = |a: (usize, f64), b: (usize, f64)| {
+            if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) { b } else { a }
+        };
+        let none = (usize::MAX, 0.0);
+        let unused = |(i, _): &(usize, &Vec<crate::ProbeView>)| !used[*i];
+        #[cfg(feature = "parallel")]
         let pick = views
             .par_iter()
             .enumerate()
-            .filter(|(i, _)| !used[*i])
-            .map(|(i, views)| {
-                let gain: f64 = views
-                    .iter()
-                    .map(|v| {
-                        f64::from((weights.score(v, scale) - best[v.sample as usize]).max(0.0))
-                    })
-                    .sum();
-                (i, gain)
-            })
-            .reduce(
-                || (usize::MAX, 0.0),
-                |a, b| {
-                    if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) {
-                        b
-                    } else {
-                        a
-                    }
-                },
-            );
+            .filter(unused)
+            .map(gain)
+            .reduce(|| none, better);
+        #[cfg(not(feature = "parallel"))]
+        let pick = views.iter().enumerate().filter(unused).map(gain).fold(none, better);
         if pick.0 == usize::MAX || pick.1 <= 0.0 {
             break;
         }

@@ -2,8 +2,8 @@
 //! the scene and how long it took.
 
 use crate::atlas::{Atlas, FreeSpace};
+use crate::par::*;
 use glam::Vec3;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// The coverage rule, as stated in every report.

@@ -3,9 +3,9 @@
 
 use crate::candidate_error::CandidateError;
 use crate::grid::fibonacci_directions;
+use crate::par::*;
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
-use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// The most voxels a [`VoxelGrid`] may hold (`2^26`, about 67 million: 67 MB of states and

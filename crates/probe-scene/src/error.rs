@@ -228,6 +228,19 @@ pub enum LoadError {
         name: String,
     },
 
+    /// [`Scene::open`](crate::Scene::open) was given a file path, but this build of
+    /// `probe-scene` has no glTF loader.
+    ///
+    /// Fix: enable the crate's `gltf` feature (on by default; it was turned off with
+    /// `default-features = false`), or open a `builtin:NAME` scene.
+    #[error(
+        "cannot load {path}: probe-scene was built without its `gltf` feature; enable it to load glTF files"
+    )]
+    LoaderDisabled {
+        /// The path asked for.
+        path: PathBuf,
+    },
+
     /// The loaded data could not be assembled into a scene.
     ///
     /// Fix: see the inner [`BuildError`].

@@ -60,6 +60,14 @@
 //!   axis-parallel ray lies in. This crate intersects with the same Möller–Trumbore arithmetic
 //!   but a small barycentric tolerance, and pads the BVH's leaf boxes by a few ulps.
 //!
+//! # Features
+//! - `gltf` (default): the glTF 2.0 loader, [`Scene::load`] and file paths in [`Scene::open`]
+//!   (pulls in `gltf` and `image`). Without it, built-in scenes, [`Scene::from_triangles`],
+//!   the BVH and [`Scene::content_hash`] work as before, and [`Scene::open`] refuses a path
+//!   with [`LoadError::LoaderDisabled`].
+//! - `parallel` (default): the BVH is built and [`Scene::closest_hits`] runs on rayon's
+//!   thread pool. Without it both run on the calling thread; hits are the same.
+//!
 //! # Examples
 //! `cargo run --release -p probe-scene --example scene_info -- SPEC` prints a scene's counts,
 //! bounds, materials, lights, cameras, warnings and hash; `--example preview -- SPEC OUT.png`
@@ -72,6 +80,7 @@ pub mod builtin;
 mod camera;
 mod error;
 mod geometry;
+#[cfg(feature = "gltf")]
 mod gltf_load;
 mod light;
 mod material;

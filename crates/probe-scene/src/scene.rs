@@ -14,7 +14,9 @@ use obvhs::ray::RayHit;
 use obvhs::rt_triangle::RtTriangle;
 use sha2::{Digest, Sha256};
 use std::fmt;
-use std::path::{Path, PathBuf};
+#[cfg(feature = "gltf")]
+use std::path::Path;
+use std::path::PathBuf;
 use std::sync::OnceLock;
 
 /// The most triangles a scene may hold (one bit of the BVH's triangle ids flags alpha masks).
@@ -106,6 +108,9 @@ impl Scene {
     /// A needed image that is missing is an error naming its URI
     /// ([`LoadError::MissingFile`]), not a silent fall-back to the material's factor, which
     /// would change the scene's colours or cut-outs.
+    ///
+    /// Needs the `gltf` feature (on by default).
+    #[cfg(feature = "gltf")]
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, LoadError> {
         let path = path.as_ref();
         let loaded = crate::gltf_load::load(path)?;
@@ -152,11 +157,17 @@ impl Scene {
     }
 
     /// Opens `builtin:NAME` as [`Scene::builtin`] and anything else as a file path with
-    /// [`Scene::load`].
+    /// [`Scene::load`]. Built without the `gltf` feature, a path is
+    /// [`LoadError::LoaderDisabled`].
     pub fn open(spec: &str) -> Result<Scene, LoadError> {
         match spec.strip_prefix("builtin:") {
             Some(name) => Scene::builtin(name),
+            #[cfg(feature = "gltf")]
             None => Scene::load(spec),
+            #[cfg(not(feature = "gltf"))]
+            None => Err(LoadError::LoaderDisabled {
+                path: PathBuf::from(spec),
+            }),
         }
     }
 
@@ -500,14 +511,24 @@ impl Scene {
         }
     }
 
-    /// [`Scene::closest_hit`] for many rays, spread over rayon's thread pool: element `i` is
-    /// the hit of `rays[i]`.
+    /// [`Scene::closest_hit`] for many rays, spread over rayon's thread pool with the
+    /// `parallel` feature (on by default) and on the calling thread without it: element `i` is
+    /// the hit of `rays[i]` either way.
     pub fn closest_hits(&self, rays: &[Ray], t_max: f32) -> Vec<Option<Hit>> {
-        use rayon::prelude::*;
-        rays.par_iter()
-            .with_min_len(256)
-            .map(|ray| self.closest_hit(ray, t_max))
-            .collect()
+        #[cfg(feature = "parallel")]
+        {
+            use rayon::prelude::*;
+            rays.par_iter()
+                .with_min_len(256)
+                .map(|ray| self.closest_hit(ray, t_max))
+                .collect()
+        }
+        #[cfg(not(feature = "parallel"))]
+        {
+            rays.iter()
+                .map(|ray| self.closest_hit(ray, t_max))
+                .collect()
+        }
     }
 }
 

@@ -314,3 +314,28 @@ fn colonnade_is_sunlit_through_its_openings() {
         .unwrap();
     assert!((down.position.y - 4.0).abs() < 1e-4);
 }
+
+/// A file path goes to the glTF loader when the crate has one (`gltf`, a default feature) and is
+/// refused with an error that names the feature when it has not; built-ins open either way.
+#[test]
+fn open_sends_paths_to_the_loader_or_names_the_missing_feature() {
+    assert_eq!(
+        Scene::open("builtin:cornell").unwrap().triangles().len(),
+        32
+    );
+    let missing = std::env::temp_dir().join("probe-scene-no-such-scene.gltf");
+    let error = Scene::open(missing.to_str().unwrap()).unwrap_err();
+    #[cfg(feature = "gltf")]
+    assert!(
+        matches!(error, LoadError::Read { ref path, .. } if *path == missing),
+        "{error}"
+    );
+    #[cfg(not(feature = "gltf"))]
+    {
+        assert!(
+            matches!(error, LoadError::LoaderDisabled { ref path } if *path == missing),
+            "{error}"
+        );
+        assert!(error.to_string().contains("`gltf` feature"), "{error}");
+    }
+}

@@ -3,6 +3,7 @@
 
 /// Why no GPU device could be had.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum GpuError {
     /// No adapter (GPU or software rasteriser) is available. Fix: install a Vulkan, Metal or
     /// DX12 driver; on Linux without a GPU, Mesa's software Vulkan (`mesa-vulkan-drivers`,
@@ -39,6 +40,7 @@ pub enum GpuError {
 
 /// Why probe data or selection data was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum UploadError {
     /// The map resolution cannot be used. Fix: bake probes at a power of two from 8 to 4096
     /// (the hi-Z pyramid halves the resolution level by level).
@@ -133,6 +135,7 @@ pub enum UploadError {
 
 /// Why a trace or a shading pass failed.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum TraceError {
     /// Nothing to trace through yet. Fix: call `upload` (or `upload_irradiance` before
     /// `shade_diffuse`) first.

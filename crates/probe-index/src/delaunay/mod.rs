@@ -9,9 +9,9 @@ use std::ops::{Add, Mul};
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 use crate::error::{DelaunayError, QueryError, ValidationError};
+use crate::par::*;
 use crate::predicates::{P3, in_sphere, orient};
 use build::{INF, StartFailure, ghost_face_order};
 
@@ -425,7 +425,9 @@ impl Tetrahedralization {
     /// previous result's tetrahedron for coherent queries). The walk steps across the face with
     /// the most negative barycentric coordinate, never back into a tetrahedron it has visited,
     /// so it ends even on faces, edges and vertices. Points outside the hull get the nearest
-    /// hull face and weights clamped onto it.
+    /// hull face and weights clamped onto it. The f32 rows only steer: the walk stops where the
+    /// exact orientation test puts `p` inside, and a walk with nowhere left to go (possible on
+    /// nearly flat sets) finishes by an exact scan of the tetrahedra.
     ///
     /// # Errors
     /// [`QueryError::NonFinitePosition`] if `p` has a NaN or infinite coordinate.
@@ -454,10 +456,29 @@ impl Tetrahedralization {
                     return Ok(self.outside(p, t, i, visited.len() as u32));
                 }
                 if !visited.contains(n) {
-                    next = Some(n);
+                    next = Some((i, n));
                     break;
                 }
             }
+            // The f32 rows can misjudge a sliver (a tetrahedron much thinner than it is
+            // long): where the exact orientation puts `p` beyond a face the rows accepted, walk
+            // on through it, or hand over to the hull search if it is a hull face. Clamping
+            // the negative coordinate instead would blend a point far along the sliver.
+            // If that neighbour was visited already, the remembering walk is stuck (it can be
+            // on nearly flat sets): scan for the tetrahedron that holds `p` instead.
+            let next = match next {
+                Some((_, n)) => Some(n),
+                None => match self.face_beyond(record, p) {
+                    None => None,
+                    Some(face) if record.neighbours[face] == NO_NEIGHBOUR => {
+                        return Ok(self.outside(p, t, face, visited.len() as u32));
+                    }
+                    Some(face) if !visited.contains(record.neighbours[face]) => {
+                        Some(record.neighbours[face])
+                    }
+                    Some(_) => return Ok(self.locate_by_scan(p, visited.len() as u32)),
+                },
+            };
             match next {
                 Some(n) => {
                     visited.insert(n);
@@ -474,6 +495,61 @@ impl Tetrahedralization {
                 }
             }
         }
+    }
+
+    /// Point location by exact tests over every tetrahedron, for a walk that got stuck: the
+    /// first tetrahedron holding `p`, or outside the hull the hull search from a hull face `p`
+    /// lies beyond.
+    fn locate_by_scan(&self, p: Vec3, steps: u32) -> Location {
+        for (t, record) in self.records.iter().enumerate() {
+            if self.face_beyond(record, p).is_none() {
+                return Location {
+                    tetrahedron: t as u32,
+                    probes: record.vertices,
+                    weights: clamp_weights(self.exact_barycentric(record, p)),
+                    outside_distance: 0.0,
+                    steps: steps + t as u32 + 1,
+                };
+            }
+        }
+        let q = p.as_dvec3().to_array();
+        let beyond = self.hull.iter().find(|face| {
+            let [a, b, c] = face
+                .vertices
+                .map(|v| self.points[v as usize].as_dvec3().to_array());
+            orient(&a, &b, &c, &q) > 0
+        });
+        match beyond {
+            Some(face) => self.outside(p, face.tetrahedron, face.face as usize, steps),
+            // Unreachable for a valid tetrahedralization; answer as the first tetrahedron.
+            None => {
+                let record = &self.records[0];
+                Location {
+                    tetrahedron: 0,
+                    probes: record.vertices,
+                    weights: clamp_weights(self.exact_barycentric(record, p)),
+                    outside_distance: 0.0,
+                    steps,
+                }
+            }
+        }
+    }
+
+    /// The face of `record` that `p` lies strictly beyond by the exact orientation test (the
+    /// one with the most negative f64 coordinate when there are several), if any.
+    fn face_beyond(&self, record: &TetRecord, p: Vec3) -> Option<usize> {
+        let corners = record
+            .vertices
+            .map(|v| self.points[v as usize].as_dvec3().to_array());
+        let q = p.as_dvec3().to_array();
+        let coordinates = self.exact_barycentric(record, p);
+        (0..4)
+            .filter(|&i| {
+                let mut w = corners;
+                w[i] = q;
+                orient(&w[0], &w[1], &w[2], &w[3]) < 0
+            })
+            .min_by(|&a, &b| coordinates[a].total_cmp(&coordinates[b]))
     }
 
     /// Barycentric coordinates of `p` from the stored rows applied to `p` minus the

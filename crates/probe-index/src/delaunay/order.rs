@@ -3,8 +3,7 @@
 //! close, so the walk that locates each new point is short; the random rounds keep the expected
 //! cost optimal on adversarial inputs.
 
-use rayon::prelude::*;
-
+use crate::par::*;
 use crate::predicates::P3;
 use crate::rng::SplitMix64;
 

@@ -334,9 +334,29 @@ pub fn expected_payload(
     planes: &[(Vec3, Vec3)],
     overlaps: bool,
 ) -> [u32; 4] {
+    let mut out = [NO_PROBE; 4];
+    for (k, (_, i)) in expected_ranking(scene, probes, lo, hi, planes, overlaps)
+        .iter()
+        .take(4)
+        .enumerate()
+    {
+        out[k] = *i;
+    }
+    out
+}
+
+/// Every visible probe with its score, best first: [`expected_payload`] before it keeps 4.
+pub fn expected_ranking(
+    scene: &dyn SceneGeometry,
+    probes: &[Vec3],
+    lo: Vec3,
+    hi: Vec3,
+    planes: &[(Vec3, Vec3)],
+    overlaps: bool,
+) -> Vec<(f32, u32)> {
     let c = (lo + hi) * 0.5;
     let from_centre = rank(scene, probes, c, &[c], planes);
-    if overlaps && from_centre[0] == NO_PROBE {
+    if overlaps && from_centre.is_empty() {
         let (n, a) = planes[0];
         let q = c - n * n.dot(c - a);
         let step = n * (hi.x - lo.x) * 0.25;
@@ -351,7 +371,7 @@ fn rank(
     c: Vec3,
     from: &[Vec3],
     planes: &[(Vec3, Vec3)],
-) -> [u32; 4] {
+) -> Vec<(f32, u32)> {
     let surface = !planes.is_empty();
     let normals: Vec<Vec3> = planes.iter().map(|p| p.0).collect();
     let mut scored: Vec<(f32, u32)> = probes
@@ -373,9 +393,5 @@ fn rank(
         })
         .collect();
     scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-    let mut out = [NO_PROBE; 4];
-    for (k, (_, i)) in scored.iter().take(4).enumerate() {
-        out[k] = *i;
-    }
-    out
+    scored
 }

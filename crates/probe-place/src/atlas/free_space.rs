@@ -188,7 +188,7 @@ impl<A: FreeSpace, B: FreeSpace> FreeSpace for (A, B) {
 ///
 /// Returns an empty list for a non-positive or non-finite `spacing` or empty bounds.
 pub fn free_space_grid(free: &dyn FreeSpace, spacing: f32) -> Vec<Vec3> {
-    use rayon::prelude::*;
+    use crate::par::*;
     let bounds = free.bounds();
     if !(spacing.is_finite() && spacing > 0.0) || bounds.is_empty() {
         return Vec::new();

@@ -8,9 +8,9 @@ mod state;
 pub use free_space::{BackfaceVote, FreeSpace, VoxelFreeSpace, free_space_grid};
 pub use state::{AtlasState, Evaluation};
 
+use crate::par::*;
 use glam::{Vec2, Vec3};
 use probe_scene::{Ray, Scene};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// The default threshold on the view cosine: a texel counts as seen by a probe only when
