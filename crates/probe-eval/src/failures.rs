@@ -50,8 +50,8 @@ use probe_place::{
 };
 use probe_scene::{Camera, Hit, Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{
-    DiffuseOptions, FieldOptions, Interpolation, LightField, ProbeSelection, RayResult, RayStatus,
-    ShadingPoint, TraceOptions, TraceRay,
+    AnyIrradiance, DiffuseOptions, FieldOptions, Interpolation, LightField, ProbeSelection,
+    RayResult, RayStatus, ShadingPoint, TraceOptions, TraceRay,
 };
 use serde::Serialize;
 
@@ -784,8 +784,8 @@ fn trace_rays(
     rays: &[TraceRay],
     options: &TraceOptions,
 ) -> Result<Vec<RayResult>, EvalError> {
-    device.upload(&light_field(baked), selection)?;
-    Ok(device.trace(rays, options)?.results)
+    let field = device.upload(&light_field(baked), selection)?;
+    Ok(device.trace(&field, rays, options)?.results)
 }
 
 /// A view's rays traced through probes: agreement, image error, finiteness.
@@ -1048,6 +1048,7 @@ fn channel_mean(v: Vec3) -> f64 {
 
 fn shade(
     device: &mut Device,
+    irradiance: &AnyIrradiance,
     points: &[ShadingPoint],
     visibility: bool,
 ) -> Result<Vec<Vec3>, EvalError> {
@@ -1055,7 +1056,7 @@ fn shade(
         visibility,
         ..DiffuseOptions::default()
     };
-    let out = device.shade_diffuse(points, &options)?;
+    let out = device.shade_diffuse(irradiance, points, &options)?;
     Ok(out.results.iter().map(|r| r.irradiance).collect())
 }
 
@@ -1105,10 +1106,10 @@ fn leak(r: &mut Recorder, cx: &mut Context<'_>, name: &str) -> Result<(), CaseEr
     ] {
         r.methods.push(format!("{label} irradiance-only"));
         r.methods.push(format!("{label} + visibility"));
-        cx.device.upload_irradiance(&baked, &interpolation)?;
-        let leaky_dark = shade(cx.device, &dark, false)?;
-        let visible_dark = shade(cx.device, &dark, true)?;
-        let visible_lit = shade(cx.device, &lit, true)?;
+        let irradiance = cx.device.upload_irradiance(&baked, &interpolation)?;
+        let leaky_dark = shade(cx.device, &irradiance, &dark, false)?;
+        let visible_dark = shade(cx.device, &irradiance, &dark, true)?;
+        let visible_lit = shade(cx.device, &irradiance, &lit, true)?;
         let finite = leaky_dark
             .iter()
             .chain(&visible_dark)
@@ -2127,8 +2128,8 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
             positions: &positions,
             ..light_field(&baked)
         };
-        let mut tracer = probe_trace_gpu::CpuTracer::new();
-        tracer.upload(
+        probe_trace_gpu::Tracer::upload(
+            &probe_trace_gpu::CpuTracer::new(),
             &field,
             &ProbeSelection::Grid(cage),
             &FieldOptions::default(),
@@ -2167,9 +2168,15 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
     r.refused(
         "NaN shading point → diffuse",
         || -> Result<Vec<Vec3>, CaseError> {
-            cx.device
+            let irradiance = cx
+                .device
                 .upload_irradiance(&baked, &Interpolation::Grid(cage))?;
-            Ok(shade(cx.device, &[ShadingPoint::new(nan, Vec3::Y)], true)?)
+            Ok(shade(
+                cx.device,
+                &irradiance,
+                &[ShadingPoint::new(nan, Vec3::Y)],
+                true,
+            )?)
         },
     );
 
@@ -2292,8 +2299,8 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
                 },
                 &no_progress,
             )?;
-            let mut tracer = probe_trace_gpu::CpuTracer::new();
-            tracer.upload(
+            probe_trace_gpu::Tracer::upload(
+                &probe_trace_gpu::CpuTracer::new(),
                 &light_field(&small),
                 &ProbeSelection::Grid(cage),
                 &FieldOptions::default(),

@@ -14,11 +14,12 @@ use probe_capture::{
     trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
-use probe_scene::{Camera, Scene};
+use probe_scene::{Camera, Hit, Scene};
+use probe_trace_gpu::Tracer as _;
 use probe_trace_gpu::{
-    CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions, GpuContext, GpuTracer, Interpolation,
-    IrradianceField, LightField, ProbeSelection, RayResult, ShadingPoint, TraceMethod,
-    TraceOptions, TraceOutput, TraceRay, TraceSummary,
+    AnyField, AnyIrradiance, AnyTracer, CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions,
+    Interpolation, IrradianceField, LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint,
+    TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
 use serde::{Deserialize, Serialize};
 
@@ -372,43 +373,34 @@ impl Tracer {
 }
 
 /// The GPU tracer when an adapter exists, else the CPU twin (same algorithm, same answers).
-pub enum Device {
-    /// wgpu on a GPU (or Mesa's lavapipe).
-    Gpu(Box<GpuTracer>, String),
-    /// The CPU reference of the same algorithm.
-    Cpu(Box<CpuTracer>),
+pub struct Device {
+    tracer: AnyTracer,
 }
 
 impl Device {
+    /// The CPU twin.
+    pub fn cpu() -> Device {
+        Device {
+            tracer: AnyTracer::new(CpuTracer::new()),
+        }
+    }
+
     /// The GPU tracer if an adapter exists, else the CPU twin (and why). With `require_gpu`,
     /// no adapter is an error.
     ///
     /// # Errors
     /// [`EvalError::Gpu`] when `require_gpu` and no adapter could be used.
     pub fn open(require_gpu: bool) -> Result<(Device, Option<String>), EvalError> {
-        match GpuContext::new().and_then(|context| {
-            let name = format!(
-                "{} ({:?})",
-                context.adapter_info().name,
-                context.adapter_info().backend
-            );
-            GpuTracer::new(&context).map(|tracer| (tracer, name))
-        }) {
-            Ok((tracer, name)) => Ok((Device::Gpu(Box::new(tracer), name), None)),
-            Err(error) if !require_gpu => Ok((
-                Device::Cpu(Box::new(CpuTracer::new())),
-                Some(error.to_string()),
-            )),
-            Err(error) => Err(EvalError::Gpu(error)),
+        match AnyTracer::gpu_or_cpu() {
+            (tracer, None) => Ok((Device { tracer }, None)),
+            (_, Some(error)) if require_gpu => Err(EvalError::Gpu(error)),
+            (tracer, Some(error)) => Ok((Device { tracer }, Some(error.to_string()))),
         }
     }
 
     /// "gpu: NAME" or "cpu twin".
     pub fn describe(&self) -> String {
-        match self {
-            Device::Gpu(_, name) => format!("gpu: {name}"),
-            Device::Cpu(_) => "cpu twin".to_owned(),
-        }
+        self.tracer.describe()
     }
 
     /// Uploads probe maps and a selection.
@@ -419,28 +411,23 @@ impl Device {
         &mut self,
         field: &LightField<'_>,
         selection: &ProbeSelection<'_>,
-    ) -> Result<(), EvalError> {
-        let options = FieldOptions::default();
-        match self {
-            Device::Gpu(tracer, _) => tracer.upload(field, selection, &options)?,
-            Device::Cpu(tracer) => tracer.upload(field, selection, &options)?,
-        }
-        Ok(())
+    ) -> Result<AnyField, EvalError> {
+        Ok(self
+            .tracer
+            .upload(field, selection, &FieldOptions::default())?)
     }
 
-    /// Traces rays through the uploaded probes.
+    /// Traces rays through uploaded probes.
     ///
     /// # Errors
     /// [`EvalError::Trace`].
     pub fn trace(
         &mut self,
+        field: &AnyField,
         rays: &[TraceRay],
         options: &TraceOptions,
     ) -> Result<TraceOutput, EvalError> {
-        Ok(match self {
-            Device::Gpu(tracer, _) => tracer.trace(rays, options)?,
-            Device::Cpu(tracer) => tracer.trace(rays, options)?,
-        })
+        Ok(self.tracer.trace(field, rays, options)?)
     }
 
     /// Uploads a bake's irradiance probes (irradiance and distance moments) for diffuse
@@ -452,7 +439,7 @@ impl Device {
         &mut self,
         baked: &ProbeBake,
         interpolation: &Interpolation<'_>,
-    ) -> Result<(), EvalError> {
+    ) -> Result<AnyIrradiance, EvalError> {
         let settings = baked.settings();
         let field = IrradianceField {
             positions: baked.positions(),
@@ -461,26 +448,20 @@ impl Device {
             moments_resolution: settings.moments_resolution,
             moments: baked.moments(),
         };
-        match self {
-            Device::Gpu(tracer, _) => tracer.upload_irradiance(&field, interpolation)?,
-            Device::Cpu(tracer) => tracer.upload_irradiance(&field, interpolation)?,
-        }
-        Ok(())
+        Ok(self.tracer.upload_irradiance(&field, interpolation)?)
     }
 
-    /// Shades points diffusely from the uploaded irradiance probes.
+    /// Shades points diffusely from uploaded irradiance probes.
     ///
     /// # Errors
     /// [`EvalError::Trace`].
     pub fn shade_diffuse(
         &mut self,
+        irradiance: &AnyIrradiance,
         points: &[ShadingPoint],
         options: &DiffuseOptions,
     ) -> Result<DiffuseOutput, EvalError> {
-        Ok(match self {
-            Device::Gpu(tracer, _) => tracer.shade_diffuse(points, options)?,
-            Device::Cpu(tracer) => tracer.shade_diffuse(points, options)?,
-        })
+        Ok(self.tracer.shade_diffuse(irradiance, points, options)?)
     }
 }
 
@@ -501,12 +482,12 @@ pub fn trace_view(
     let Some(probe_selection) = selection.of(index) else {
         return Ok(None);
     };
-    device.upload(&light_field(baked), &probe_selection)?;
+    let field = device.upload(&light_field(baked), &probe_selection)?;
     let options = tracer.options();
     // Warm up: the first dispatch compiles the pipeline (lavapipe: ~0.1 s).
     let warm = rays.len().min(256);
-    device.trace(&rays[..warm], &options)?;
-    let output = device.trace(rays, &options)?;
+    device.trace(&field, &rays[..warm], &options)?;
+    let output = device.trace(&field, rays, &options)?;
     let image = view.image_of(&output.results)?;
     let summary = TraceSummary::of(&output.results);
     let comparison = compare_rays(baked, &view.reference, &output.results);

@@ -21,7 +21,7 @@ use probe_index::{
 };
 use probe_scene::{Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, ProbeSelection, TraceMethod, TraceOptions, TraceSummary,
+    CpuTracer, FieldOptions, ProbeSelection, TraceMethod, TraceOptions, TraceSummary, Tracer,
 };
 use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
 
@@ -79,12 +79,15 @@ fn row(
             }
         };
         let mut tracer = CpuTracer::new();
-        tracer
+        let field = tracer
             .upload(&bake.field(), &selection, &field_options)
             .unwrap();
-        let hiz = tracer.trace(&trace_rays, &TraceOptions::default()).unwrap();
+        let hiz = tracer
+            .trace(&field, &trace_rays, &TraceOptions::default())
+            .unwrap();
         let two = tracer
             .trace(
+                &field,
                 &trace_rays,
                 &TraceOptions {
                     method: TraceMethod::TwoLevel,

@@ -19,7 +19,7 @@ use glam::Vec3;
 use probe_index::{NearestProbe, ProbeGrid, Tetrahedralization, VoronoiNeighbours};
 use probe_scene::Scene;
 use probe_trace_gpu::{
-    CpuTracer, FetchProfile, FieldOptions, ProbeSelection, TraceMethod, TraceOptions,
+    CpuTracer, FetchProfile, FieldOptions, ProbeSelection, TraceMethod, TraceOptions, Tracer,
 };
 use support::{capture_bake, evaluation_rays, placement, to_trace_rays};
 
@@ -89,7 +89,7 @@ fn main() {
         }
     };
     let mut tracer = CpuTracer::new();
-    tracer
+    let field = tracer
         .upload(&bake.field(), &selection, &FieldOptions::default())
         .unwrap();
     let trace_rays = to_trace_rays(&rays);
@@ -99,7 +99,9 @@ fn main() {
             method,
             ..TraceOptions::default()
         };
-        let profile = tracer.profile_fetches(&trace_rays, &options).unwrap();
+        let profile = tracer
+            .profile_fetches(&field, &trace_rays, &options)
+            .unwrap();
         println!(
             "\n### {scene_name}, {} {placement_name} probes at {resolution}², {} ({} selection)\n",
             positions.len(),
@@ -121,7 +123,7 @@ fn main() {
                 method,
                 ..TraceOptions::default()
             };
-            tracer.trace(&trace_rays, &options).unwrap().results
+            tracer.trace(&field, &trace_rays, &options).unwrap().results
         })
         .collect();
     let same = answers[0]

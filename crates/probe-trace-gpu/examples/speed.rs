@@ -20,7 +20,7 @@ use probe_index::ProbeGrid;
 use probe_scene::Scene;
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, GpuContext, GpuTracer, ProbeSelection, RayResult, TraceMethod,
-    TraceOptions, TraceSummary,
+    TraceOptions, TraceSummary, Tracer,
 };
 use support::{albedo_shade, mini_capture, reflection_rays, to_trace_rays};
 
@@ -94,15 +94,17 @@ fn main() {
         info.name, info.backend, info.driver_info
     );
     let mut gpu = GpuTracer::new(&context).unwrap();
-    gpu.upload(&bake.field(), &selection, &FieldOptions::default())
+    let gpu_field = gpu
+        .upload(&bake.field(), &selection, &FieldOptions::default())
         .unwrap();
     let mut cpu = CpuTracer::new();
-    cpu.upload(&bake.field(), &selection, &FieldOptions::default())
+    let cpu_field = cpu
+        .upload(&bake.field(), &selection, &FieldOptions::default())
         .unwrap();
 
     // Warm up: the first dispatch compiles the pipeline on lavapipe.
     for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
-        gpu.trace(&rays[..4096.min(rays.len())], &options(method))
+        gpu.trace(&gpu_field, &rays[..4096.min(rays.len())], &options(method))
             .unwrap();
     }
 
@@ -119,8 +121,8 @@ fn main() {
         Duration,
     )> = Vec::new();
     for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
-        let g = gpu.trace(&rays, &options(method)).unwrap();
-        let c = cpu.trace(&rays, &options(method)).unwrap();
+        let g = gpu.trace(&gpu_field, &rays, &options(method)).unwrap();
+        let c = cpu.trace(&cpu_field, &rays, &options(method)).unwrap();
         let agree = same_answers(&g.results, &c.results);
         eprintln!(
             "{}: GPU and CPU agree on {agree} of {} rays",

@@ -133,18 +133,21 @@ pub enum UploadError {
     },
 }
 
-/// Why a trace or a shading pass failed.
+/// Why a trace or a shading pass failed, or could not be recorded.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TraceError {
-    /// Nothing to trace through yet. Fix: call `upload` (or `upload_irradiance` before
-    /// `shade_diffuse`) first.
-    #[error("no {what} uploaded yet; call `{call}` first")]
-    NotUploaded {
-        /// What is missing.
-        what: &'static str,
-        /// The call that provides it.
-        call: &'static str,
+    /// The field was uploaded by another tracer: a GPU field of another `GpuTracer`, or (through
+    /// `AnyTracer`) a field of the other kind of tracer. Fix: upload the probes with the
+    /// tracer that traces them.
+    #[error(
+        "the field was uploaded by `{uploaded_by}`, not by this tracer (`{tracer}`); upload it with the tracer that traces it"
+    )]
+    ForeignField {
+        /// The tracer (or device) that uploaded the field.
+        uploaded_by: String,
+        /// The tracer asked to use it.
+        tracer: String,
     },
     /// A ray or shading point is unusable. Fix: pass finite origins, finite non-zero
     /// directions (normals) and `0 <= t_min <= t_max` (`t_max` may be infinite).
@@ -166,6 +169,30 @@ pub enum TraceError {
         value: f64,
         /// What it must be.
         requirement: &'static str,
+    },
+    /// A buffer given to a recording call (`GpuTracer::bind_trace`, `record_trace` and the
+    /// diffuse equivalents) cannot be bound: it lacks a usage flag, is smaller than `count`
+    /// items, or is the same buffer as the other one. Fix: create the input and output
+    /// buffers separately with `wgpu::BufferUsages::STORAGE`, at least `count ×` the item
+    /// size (documented on `TraceBuffers` and `DiffuseBuffers`) bytes each.
+    #[error("buffer `{buffer}`: {reason}")]
+    BadBuffer {
+        /// `"rays"`, `"results"` or `"points"`.
+        buffer: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// More items than one dispatch can bind on this device (the device's
+    /// `max_storage_buffer_binding_size` over the item size, or its workgroup grid). Fix:
+    /// record several calls over smaller buffers.
+    #[error("{count} {item}s in one call; this device binds at most {limit}")]
+    TooManyItems {
+        /// `"ray"` or `"shading point"`.
+        item: &'static str,
+        /// Items asked for.
+        count: u64,
+        /// Most items per call on this device.
+        limit: u64,
     },
     /// The device reported an error while running the pass (validation, out of memory, or a
     /// lost device). Fix: usually a driver problem; retry with fewer rays per call.

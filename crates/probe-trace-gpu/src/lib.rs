@@ -13,10 +13,16 @@
 //! - [`ProbeSelection`] / [`Interpolation`]: which probes a ray tries (a regular grid's cage,
 //!   the sparse voxel octree or the Voronoi-sphere neighbours of `probe-index`), and how
 //!   diffuse shading blends probes (trilinear or Delaunay barycentric).
-//! - [`GpuTracer`] (built once on a [`GpuContext`] or an engine's own `wgpu::Device`) and
-//!   [`CpuTracer`]: `upload`, then `trace` ray sets ([`TraceRay`] → [`RayResult`]) with
-//!   [`TraceOptions`] (hi-Z or two-level, probe cap, back-face rejection), and
-//!   `upload_irradiance` / `shade_diffuse`.
+//! - [`Tracer`]: what both tracers do. [`GpuTracer`] (built once on a [`GpuContext`] or an
+//!   engine's own `wgpu::Device`) and [`CpuTracer`] (its twin) `upload` probes and return the
+//!   uploaded field as a value you hold ([`GpuField`] / [`CpuField`]), then `trace` ray sets
+//!   through it ([`TraceRay`] → [`RayResult`]) with [`TraceOptions`] (hi-Z or two-level,
+//!   probe cap, back-face rejection); `upload_irradiance` / `shade_diffuse` likewise. Tracing
+//!   before uploading does not compile. [`AnyTracer`] boxes either, chosen at run time.
+//! - For engines: [`GpuTracer::record_trace`] records a trace from rays already in a GPU
+//!   buffer into a results buffer, into the caller's `wgpu::CommandEncoder` ([`TraceBuffers`],
+//!   [`RayRecord`]); [`TRACE_WGSL`], [`trace_bind_group_layout_entries`] and
+//!   [`GpuTracer::bind_trace`] let an engine build its own pipeline around the shader.
 //!
 //! # Example
 //!
@@ -29,7 +35,7 @@
 //! use probe_index::ProbeGrid;
 //! use probe_octa::OctaLayout;
 //! use probe_trace_gpu::{CpuTracer, FieldOptions, GpuContext, GpuTracer, LightField};
-//! use probe_trace_gpu::{ProbeSelection, RayStatus, TraceOptions, TraceRay};
+//! use probe_trace_gpu::{ProbeSelection, RayStatus, TraceOptions, TraceRay, Tracer};
 //!
 //! // The room [-2, 2]³, walls facing in; each wall has its own colour.
 //! fn wall(p: Vec3, d: Vec3) -> (f32, Vec3, Vec3) {
@@ -71,8 +77,9 @@
 //! // A ray from inside the room towards the +x wall.
 //! let rays = [TraceRay::new(Vec3::new(0.3, 0.2, -0.1), Vec3::new(1.0, 0.3, 0.2))];
 //! let mut cpu = CpuTracer::new();
-//! cpu.upload(&field, &ProbeSelection::Grid(grid), &FieldOptions::default())?;
-//! let hit = cpu.trace(&rays, &TraceOptions::default())?.results[0];
+//! // The uploaded field is a value: tracing needs one, so it cannot come before the upload.
+//! let on_cpu = cpu.upload(&field, &ProbeSelection::Grid(grid), &FieldOptions::default())?;
+//! let hit = cpu.trace(&on_cpu, &rays, &TraceOptions::default())?.results[0];
 //! assert_eq!(hit.status, RayStatus::Hit);
 //! assert!((hit.position.x - 2.0).abs() < 0.02, "{}", hit.position);
 //! assert_eq!(hit.radiance, Vec3::new(0.75, 0.25, 0.25));
@@ -80,10 +87,10 @@
 //! // The same on the GPU, when one (or Mesa's lavapipe) is available.
 //! if let Ok(context) = GpuContext::new() {
 //!     let mut gpu = GpuTracer::new(&context)?;
-//!     gpu.upload(&field, &ProbeSelection::Grid(grid), &FieldOptions::default())?;
-//!     let on_gpu = gpu.trace(&rays, &TraceOptions::default())?.results[0];
-//!     assert_eq!(on_gpu.status, RayStatus::Hit);
-//!     assert!((on_gpu.position - hit.position).length() < 1e-4);
+//!     let on_gpu = gpu.upload(&field, &ProbeSelection::Grid(grid), &FieldOptions::default())?;
+//!     let gpu_hit = gpu.trace(&on_gpu, &rays, &TraceOptions::default())?.results[0];
+//!     assert_eq!(gpu_hit.status, RayStatus::Hit);
+//!     assert!((gpu_hit.position - hit.position).length() < 1e-4);
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -150,21 +157,39 @@
 //! geometry per padded texel, 16 B (distance with an edge flag, octahedral snorm16 normal,
 //! `near`, `far` with an edge flag); radiance per padded texel, 12 B; the pyramid levels 1…,
 //! 8 B per texel (about a third of the texel count), level-major with an offset table; the
-//! selection's words. A 256² probe takes about 2.1 MB. Ray and result buffers are sized for the
-//! largest call so far (at most 2²⁰ rays per dispatch; larger calls are split) and reused.
+//! selection's words. A 256² probe takes about 2.1 MB. The convenience calls'
+//! ([`Tracer::trace`] on a slice) ray and result buffers are sized for the largest call so far
+//! (at most 2²⁰ rays per dispatch; larger calls are split) and reused.
 //! GPU time comes from timestamp queries when the device supports them ([`Timing::gpu`]).
 //! On lavapipe a pipeline is compiled on its first dispatch (0.06–0.12 s measured here); time
 //! later calls.
 //!
 //! # For a renderer (the `probes render` CLI)
 //!
-//! Build a [`GpuContext`] (a clear [`GpuError`] if no adapter exists), a [`GpuTracer`], upload
-//! the bake's maps with the index's selection, make one [`TraceRay`] per pixel (camera rays for
-//! primary visibility, or reflection rays from a G-buffer for the glossy component), call
-//! [`GpuTracer::trace`] and write [`RayResult::radiance`]; [`TraceSummary::of`] gives the hit
+//! Build a [`GpuContext`] (a clear [`GpuError`] if no adapter exists), a [`GpuTracer`] (or
+//! [`AnyTracer::gpu_or_cpu`], which falls back to the CPU twin), upload the bake's maps with
+//! the index's selection, make one [`TraceRay`] per pixel (camera rays for primary
+//! visibility, or reflection rays from a G-buffer for the glossy component), call
+//! [`Tracer::trace`] and write [`RayResult::radiance`]; [`TraceSummary::of`] gives the hit
 //! rate, fetches and probes per ray, and [`TraceOutput::timing`] the time. For the diffuse
-//! component, upload an [`IrradianceField`] and call [`GpuTracer::shade_diffuse`] on the
+//! component, upload an [`IrradianceField`] and call [`Tracer::shade_diffuse`] on the
 //! G-buffer's points and normals.
+//!
+//! # For an engine (rays and results stay on the GPU)
+//!
+//! Make the tracer on the engine's device ([`GpuTracer::from_device`]) and upload once. Each
+//! frame, a pass of the engine writes [`TraceRay`]s (unit directions) into a `STORAGE` buffer;
+//! [`GpuTracer::record_trace`] (or a [`TraceBinding`] made once by [`GpuTracer::bind_trace`]
+//! and recorded every frame) records the trace into the engine's command encoder, writing one
+//! [`RayRecord`] per ray into a second `STORAGE` buffer that the engine's next pass reads
+//! (its WGSL mirror is on [`RayRecord`]). Nothing blocks or reads back. Buffer sizes and
+//! usages are checked when binding ([`TraceError::BadBuffer`]). The same holds for diffuse
+//! shading ([`GpuTracer::record_diffuse`], [`DiffuseBuffers`]). To build a pipeline of your
+//! own instead (say, the shader inside a larger module), take [`TRACE_WGSL`],
+//! [`TRACE_ENTRY_POINT`] and [`trace_bind_group_layout_entries`] (which binding holds what),
+//! and bind [`TraceBinding::bind_group`] at group 0, dispatching
+//! [`TraceBinding::workgroups`]. The example `engine_frames` renders several frames this
+//! way, with rays made and results consumed by compute passes of its own; a test runs it.
 //!
 //! # Design choices
 //!
@@ -189,15 +214,21 @@ mod packed;
 mod pyramid;
 mod ray;
 mod surface;
+mod tracer;
 
 pub use cpu::{
-    CpuTracer, DiffuseOutput, FetchKind, FetchPhase, FetchProfile, PHASE_WINDOW_TEXELS,
-    PROFILE_LEVELS, TraceOutput,
+    CpuField, CpuIrradiance, CpuTracer, DiffuseOutput, FetchKind, FetchPhase, FetchProfile,
+    PHASE_WINDOW_TEXELS, PROFILE_LEVELS, TraceOutput,
 };
 pub use error::{GpuError, TraceError, UploadError};
-pub use gpu::{GpuContext, GpuTracer};
+pub use gpu::{
+    DIFFUSE_ENTRY_POINT, DIFFUSE_WGSL, DiffuseBinding, DiffuseBuffers, GpuContext, GpuField,
+    GpuIrradiance, GpuTracer, TRACE_ENTRY_POINT, TRACE_WGSL, TraceBinding, TraceBuffers,
+    WORKGROUP_SIZE, diffuse_bind_group_layout_entries, trace_bind_group_layout_entries,
+};
 pub use input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 pub use ray::{
-    DiffuseOptions, DiffuseResult, RayResult, RayStatus, ShadingPoint, Timing, TraceMethod,
-    TraceOptions, TraceRay, TraceSummary,
+    DiffuseOptions, DiffuseResult, RayRecord, RayResult, RayStatus, ShadingPoint, Timing,
+    TraceMethod, TraceOptions, TraceRay, TraceSummary,
 };
+pub use tracer::{AnyField, AnyIrradiance, AnyTracer, Tracer};

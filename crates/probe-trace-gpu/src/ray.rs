@@ -95,7 +95,10 @@ pub struct RayResult {
     pub texel_fetches: u32,
 }
 
-/// The per-ray record the shaders write (64 bytes). WGSL mirror:
+/// The per-ray record the trace shader writes (64 bytes): what a results buffer of
+/// [`crate::GpuTracer::record_trace`] holds, one per ray in order. [`RayResult`] is the same
+/// thing decoded (`RayResult::from(record)`). WGSL mirror, for a pass of yours that reads the
+/// results:
 ///
 /// ```wgsl
 /// struct RayRecord {
@@ -107,15 +110,24 @@ pub struct RayResult {
 /// ```
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub(crate) struct RayRecord {
+pub struct RayRecord {
+    /// [`RayResult::position`].
     pub position: [f32; 3],
+    /// [`RayResult::t`].
     pub t: f32,
+    /// [`RayResult::normal`].
     pub normal: [f32; 3],
+    /// [`RayResult::status`] as a code: 0 hit, 1 miss, 2 unknown.
     pub status: u32,
+    /// [`RayResult::radiance`].
     pub radiance: [f32; 3],
+    /// [`RayResult::probe`], with `u32::MAX` for none.
     pub probe: u32,
+    /// [`RayResult::probes_tried`].
     pub probes_tried: u32,
+    /// [`RayResult::texel_fetches`].
     pub texel_fetches: u32,
+    /// Padding (zero).
     pub pad: [u32; 2],
 }
 

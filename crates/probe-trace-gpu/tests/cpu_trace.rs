@@ -10,7 +10,7 @@ use probe_index::{
 use probe_scene::{Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
-    TraceSummary,
+    TraceSummary, Tracer,
 };
 use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
 
@@ -179,7 +179,7 @@ fn single_probe_sees_a_convex_room() {
     // Eight probes at the corners of a small cube around the centre, all inside the room.
     let grid = ProbeGrid::new(Vec3::new(-0.3, 1.2, -0.3), Vec3::splat(0.6), [2, 2, 2]).unwrap();
     let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
-    tracer
+    let field = tracer
         .upload(
             &bake.field(),
             &ProbeSelection::Grid(grid),
@@ -199,10 +199,10 @@ fn single_probe_sees_a_convex_room() {
         .collect();
     let trace_rays = to_trace_rays(&rays);
     let hiz = tracer
-        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .trace(&field, &trace_rays, &options(TraceMethod::HiZ))
         .unwrap();
     let two = tracer
-        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .trace(&field, &trace_rays, &options(TraceMethod::TwoLevel))
         .unwrap();
     let a = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
     assert_eq!(a.seen, rays.len());
@@ -276,10 +276,12 @@ fn hand_off_past_an_occluder() {
         },
     ] {
         let mut tracer = CpuTracer::new();
-        tracer
+        let field = tracer
             .upload(&bake.field(), &selection, &FieldOptions::default())
             .unwrap();
-        let out = tracer.trace(&trace_rays, &TraceOptions::default()).unwrap();
+        let out = tracer
+            .trace(&field, &trace_rays, &TraceOptions::default())
+            .unwrap();
         let a = accuracy(&scene, &bake, &rays, &out.results, &shade);
         let s = TraceSummary::of(&out.results);
         eprintln!("{}: {a:?} {s:?}", selection.name());
@@ -321,7 +323,7 @@ fn cornell_reflections_against_exact_hits() {
     let grid = cornell_grid();
     let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &shade);
     let mut tracer = CpuTracer::new();
-    tracer
+    let field = tracer
         .upload(
             &bake.field(),
             &ProbeSelection::Grid(grid),
@@ -331,10 +333,10 @@ fn cornell_reflections_against_exact_hits() {
     let rays = reflection_rays(&scene, &camera_rays(&scene, 64, 48));
     let trace_rays = to_trace_rays(&rays);
     let hiz = tracer
-        .trace(&trace_rays, &options(TraceMethod::HiZ))
+        .trace(&field, &trace_rays, &options(TraceMethod::HiZ))
         .unwrap();
     let two = tracer
-        .trace(&trace_rays, &options(TraceMethod::TwoLevel))
+        .trace(&field, &trace_rays, &options(TraceMethod::TwoLevel))
         .unwrap();
     let a_hiz = accuracy(&scene, &bake, &rays, &hiz.results, &shade);
     let a_two = accuracy(&scene, &bake, &rays, &two.results, &shade);
@@ -361,7 +363,7 @@ fn rays_into_the_sky_are_misses() {
     let grid = cornell_grid();
     let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &shade);
     let mut tracer = CpuTracer::new();
-    tracer
+    let field = tracer
         .upload(
             &bake.field(),
             &ProbeSelection::Grid(grid),
@@ -375,7 +377,9 @@ fn rays_into_the_sky_are_misses() {
             TraceRay::new(Vec3::new(x, 0.4, 0.05), Vec3::new(0.05, 0.02, -1.0))
         })
         .collect();
-    let out = tracer.trace(&rays, &TraceOptions::default()).unwrap();
+    let out = tracer
+        .trace(&field, &rays, &TraceOptions::default())
+        .unwrap();
     for r in &out.results {
         assert_eq!(r.status, RayStatus::Miss, "{r:?}");
         assert!(r.radiance.abs_diff_eq(support::SKY, 1e-6));
@@ -388,7 +392,9 @@ fn rays_into_the_sky_are_misses() {
         0.0,
         0.05,
     )];
-    let out = tracer.trace(&short, &TraceOptions::default()).unwrap();
+    let out = tracer
+        .trace(&field, &short, &TraceOptions::default())
+        .unwrap();
     assert_eq!(out.results[0].status, RayStatus::Miss);
     assert!((out.results[0].t - 0.05).abs() < 1e-6);
 }

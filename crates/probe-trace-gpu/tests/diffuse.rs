@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use probe_index::{ProbeGrid, Tetrahedralization};
 use probe_scene::{Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, TraceError,
+    CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, TraceError, Tracer,
 };
 use support::{LowRes, direct_light_shade, mini_capture};
 
@@ -60,8 +60,10 @@ fn interpolation_reproduces_linear_fields() {
         ..DiffuseOptions::default()
     };
     for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
-        tracer.upload_irradiance(&field, &interpolation).unwrap();
-        let out = tracer.shade_diffuse(&points, &options).unwrap();
+        let irradiance = tracer.upload_irradiance(&field, &interpolation).unwrap();
+        let out = tracer
+            .shade_diffuse(&irradiance, &points, &options)
+            .unwrap();
         for (p, r) in points.iter().zip(&out.results) {
             let expected = f(Vec3::from(p.position));
             assert!(
@@ -140,19 +142,19 @@ fn leak_figures(scene_name: &str) -> LeakFigures {
     let bake = mini_capture(&scene, &grid.positions(), 16, 100.0, &shade);
     let low = LowRes::of(&bake);
     let mut tracer = CpuTracer::new();
-    tracer
+    let irradiance = tracer
         .upload_irradiance(&low.field(), &Interpolation::Grid(grid))
         .unwrap();
     let dark = floor_points(0.15, 1.2, -1.8, 0.8);
     let lit = floor_points(-1.2, -0.15, -1.8, 0.8);
     let mean = |v: &[Vec3]| v.iter().map(|e| (e.x + e.y + e.z) / 3.0).sum::<f32>() / v.len() as f32;
-    let shade_with = |points: &[ShadingPoint], visibility: bool| -> Vec<Vec3> {
+    let mut shade_with = |points: &[ShadingPoint], visibility: bool| -> Vec<Vec3> {
         let options = DiffuseOptions {
             visibility,
             ..DiffuseOptions::default()
         };
         tracer
-            .shade_diffuse(points, &options)
+            .shade_diffuse(&irradiance, points, &options)
             .unwrap()
             .results
             .iter()
@@ -225,13 +227,6 @@ fn visibility_keeps_light_through_a_gap() {
 fn diffuse_errors_name_the_problem() {
     let mut tracer = CpuTracer::new();
     let points = [ShadingPoint::new(Vec3::ZERO, Vec3::Y)];
-    assert!(matches!(
-        tracer.shade_diffuse(&points, &DiffuseOptions::default()),
-        Err(TraceError::NotUploaded {
-            call: "upload_irradiance",
-            ..
-        })
-    ));
     let positions = [Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
     let irradiance = vec![Vec3::ONE; 4 * 64];
     let moments = vec![Vec2::ONE; 4 * 256];
@@ -243,12 +238,12 @@ fn diffuse_errors_name_the_problem() {
         moments: &moments,
     };
     let tets = Tetrahedralization::build(&positions).unwrap();
-    tracer
+    let uploaded = tracer
         .upload_irradiance(&field, &Interpolation::Delaunay(&tets))
         .unwrap();
     let bad_point = [ShadingPoint::new(Vec3::ZERO, Vec3::ZERO)];
     assert!(matches!(
-        tracer.shade_diffuse(&bad_point, &DiffuseOptions::default()),
+        tracer.shade_diffuse(&uploaded, &bad_point, &DiffuseOptions::default()),
         Err(TraceError::BadInput {
             item: "shading point",
             index: 0,
@@ -260,7 +255,7 @@ fn diffuse_errors_name_the_problem() {
         ..DiffuseOptions::default()
     };
     assert!(matches!(
-        tracer.shade_diffuse(&points, &bad_bias),
+        tracer.shade_diffuse(&uploaded, &points, &bad_bias),
         Err(TraceError::BadOption {
             option: "normal_bias",
             ..

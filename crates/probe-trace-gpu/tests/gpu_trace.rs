@@ -12,7 +12,7 @@ use probe_index::{
 use probe_scene::Scene;
 use probe_trace_gpu::{
     CpuTracer, DiffuseOptions, FieldOptions, GpuContext, Interpolation, ProbeSelection, RayResult,
-    RayStatus, ShadingPoint, TraceError, TraceMethod, TraceOptions, TraceRay, TraceSummary,
+    RayStatus, ShadingPoint, TraceError, TraceMethod, TraceOptions, TraceRay, TraceSummary, Tracer,
 };
 use support::{
     LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
@@ -100,17 +100,19 @@ fn gpu_matches_cpu_for_every_selector_and_method() {
             neighbours: &neighbours,
         },
     ] {
-        gpu.upload(&bake.field(), &selection, &FieldOptions::default())
+        let gpu_field = gpu
+            .upload(&bake.field(), &selection, &FieldOptions::default())
             .unwrap();
-        cpu.upload(&bake.field(), &selection, &FieldOptions::default())
+        let cpu_field = cpu
+            .upload(&bake.field(), &selection, &FieldOptions::default())
             .unwrap();
         for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
             let options = TraceOptions {
                 method,
                 ..TraceOptions::default()
             };
-            let g = gpu.trace(&rays, &options).unwrap();
-            let c = cpu.trace(&rays, &options).unwrap();
+            let g = gpu.trace(&gpu_field, &rays, &options).unwrap();
+            let c = cpu.trace(&cpu_field, &rays, &options).unwrap();
             let label = format!("{} {}", selection.name(), method.name());
             assert_agree(&label, &g.results, &c.results);
             eprintln!(
@@ -133,23 +135,29 @@ fn repeated_calls_reuse_and_grow_buffers() {
     let grid = cornell_grid();
     let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &shade);
     let mut cpu = CpuTracer::new();
-    gpu.upload(
-        &bake.field(),
-        &ProbeSelection::Grid(grid),
-        &FieldOptions::default(),
-    )
-    .unwrap();
-    cpu.upload(
-        &bake.field(),
-        &ProbeSelection::Grid(grid),
-        &FieldOptions::default(),
-    )
-    .unwrap();
+    let gpu_field = gpu
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .unwrap();
+    let cpu_field = cpu
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .unwrap();
     let all = to_trace_rays(&camera_rays(&scene, 40, 30));
     for count in [100, 37, 1200, 5, 1200, 0] {
         let rays = &all[..count];
-        let g = gpu.trace(rays, &TraceOptions::default()).unwrap();
-        let c = cpu.trace(rays, &TraceOptions::default()).unwrap();
+        let g = gpu
+            .trace(&gpu_field, rays, &TraceOptions::default())
+            .unwrap();
+        let c = cpu
+            .trace(&cpu_field, rays, &TraceOptions::default())
+            .unwrap();
         assert_eq!(g.results.len(), count);
         if count > 0 {
             let same = g
@@ -167,7 +175,7 @@ fn repeated_calls_reuse_and_grow_buffers() {
         ..TraceOptions::default()
     };
     assert!(matches!(
-        gpu.trace(&all[..4], &bad),
+        gpu.trace(&gpu_field, &all[..4], &bad),
         Err(TraceError::BadOption {
             option: "max_probes",
             ..
@@ -175,7 +183,7 @@ fn repeated_calls_reuse_and_grow_buffers() {
     ));
     let bad_ray = [TraceRay::new(Vec3::ZERO, Vec3::ZERO)];
     assert!(matches!(
-        gpu.trace(&bad_ray, &TraceOptions::default()),
+        gpu.trace(&gpu_field, &bad_ray, &TraceOptions::default()),
         Err(TraceError::BadInput { index: 0, .. })
     ));
 }
@@ -206,15 +214,19 @@ fn gpu_diffuse_matches_cpu() {
         .collect();
     let mut cpu = CpuTracer::new();
     for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
-        gpu.upload_irradiance(&low.field(), &interpolation).unwrap();
-        cpu.upload_irradiance(&low.field(), &interpolation).unwrap();
+        let gpu_irradiance = gpu.upload_irradiance(&low.field(), &interpolation).unwrap();
+        let cpu_irradiance = cpu.upload_irradiance(&low.field(), &interpolation).unwrap();
         for visibility in [false, true] {
             let options = DiffuseOptions {
                 visibility,
                 ..DiffuseOptions::default()
             };
-            let g = gpu.shade_diffuse(&points, &options).unwrap();
-            let c = cpu.shade_diffuse(&points, &options).unwrap();
+            let g = gpu
+                .shade_diffuse(&gpu_irradiance, &points, &options)
+                .unwrap();
+            let c = cpu
+                .shade_diffuse(&cpu_irradiance, &points, &options)
+                .unwrap();
             let close = g
                 .results
                 .iter()

@@ -115,10 +115,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let baked = ProbeBake::load(&args.bake, Some(&scene))?;
     let camera = camera(&scene, &args.camera)?;
     let (mut device, fallback) = if args.cpu {
-        (
-            Device::Cpu(Box::new(probe_trace_gpu::CpuTracer::new())),
-            None,
-        )
+        (Device::cpu(), None)
     } else {
         Device::open(args.require_gpu)?
     };
@@ -179,15 +176,15 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::Hiz => Tracer::HiZ,
             TracerArg::TwoLevel => Tracer::TwoLevel,
         };
-        device.upload(&light_field(&baked), &probe_selection)?;
+        let field = device.upload(&light_field(&baked), &probe_selection)?;
         let trace_rays: Vec<TraceRay> = rays
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
             .collect();
         let options = tracer.options();
         // The first dispatch compiles the pipeline; time the second.
-        device.trace(&trace_rays[..trace_rays.len().min(256)], &options)?;
-        let output = device.trace(&trace_rays, &options)?;
+        device.trace(&field, &trace_rays[..trace_rays.len().min(256)], &options)?;
+        let output = device.trace(&field, &trace_rays, &options)?;
         let summary = TraceSummary::of(&output.results);
         let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
         let map = json.as_object_mut().expect("an object");
@@ -224,7 +221,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             (Some(grid), SelectArg::Grid) => Interpolation::Grid(*grid),
             _ => Interpolation::Delaunay(&index_tetrahedra(&baked)?),
         };
-        device.upload_irradiance(&baked, &interpolation)?;
+        let irradiance = device.upload_irradiance(&baked, &interpolation)?;
         let mut pixels = Vec::new();
         let mut points = Vec::new();
         for (i, sample) in gbuffer.pixels.iter().enumerate() {
@@ -233,7 +230,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 points.push(ShadingPoint::new(s.position, s.shading_normal));
             }
         }
-        let output = device.shade_diffuse(&points, &DiffuseOptions::default())?;
+        let output = device.shade_diffuse(&irradiance, &points, &DiffuseOptions::default())?;
         let mut image = Image::new(args.width, args.height);
         for (&pixel, (result, sample)) in pixels.iter().zip(
             output.results.iter().zip(

@@ -21,6 +21,7 @@ use crate::ray::{
     DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, Timing, TraceOptions,
     TraceRay,
 };
+use crate::tracer::Tracer;
 use march::{CONTINUE, HIT, MISS, ProbeRay, Segment, UNKNOWN, split_segments};
 pub use profile::{FetchKind, FetchPhase, FetchProfile, PHASE_WINDOW_TEXELS, PROFILE_LEVELS};
 use profile::{FetchLog, RayObserver};
@@ -45,98 +46,63 @@ pub struct DiffuseOutput {
 }
 
 /// The CPU reference tracer: same inputs, algorithms, texel reads and outputs as
-/// [`crate::GpuTracer`], written in Rust step for step as the WGSL.
-#[derive(Clone, Debug, Default)]
-pub struct CpuTracer {
-    field: Option<PackedField>,
-    selection: Option<PackedSelection>,
-    irradiance: Option<PackedIrradiance>,
+/// [`crate::GpuTracer`], written in Rust step for step as the WGSL. It holds nothing: each
+/// upload returns the packed arrays as a [`CpuField`] (or [`CpuIrradiance`]) the caller keeps
+/// and passes to [`Tracer::trace`] (or [`Tracer::shade_diffuse`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CpuTracer;
+
+/// A light field and its probe selection uploaded to the CPU twin: the same packed arrays the
+/// GPU tracer puts in its storage buffers.
+#[derive(Clone, Debug)]
+pub struct CpuField {
+    field: PackedField,
+    selection: PackedSelection,
+}
+
+/// Irradiance probes uploaded to the CPU twin.
+#[derive(Clone, Debug)]
+pub struct CpuIrradiance {
+    irradiance: PackedIrradiance,
+}
+
+impl CpuField {
+    /// Probes in the field.
+    pub fn probe_count(&self) -> u32 {
+        self.field.probe_count
+    }
+
+    /// Interior texels per side of each probe's maps.
+    pub fn resolution(&self) -> u32 {
+        self.field.resolution
+    }
+}
+
+impl CpuIrradiance {
+    /// Probes in the field.
+    pub fn probe_count(&self) -> u32 {
+        self.irradiance.probe_count
+    }
 }
 
 impl CpuTracer {
-    /// A tracer with nothing uploaded.
+    /// The CPU twin.
     pub fn new() -> Self {
-        Self::default()
+        Self
     }
 
-    /// Checks and takes a light field and its probe selection (replacing any earlier one).
-    ///
-    /// # Errors
-    /// [`UploadError`] naming the bad slice, element or parameter.
-    pub fn upload(
-        &mut self,
-        field: &LightField<'_>,
-        selection: &ProbeSelection<'_>,
-        options: &FieldOptions,
-    ) -> Result<(), UploadError> {
-        let packed = PackedField::new(field, options)?;
-        let selection = PackedSelection::new(selection, packed.probe_count as usize)?;
-        self.field = Some(packed);
-        self.selection = Some(selection);
-        Ok(())
-    }
-
-    /// Checks and takes irradiance and moment maps and the interpolation scheme.
-    ///
-    /// # Errors
-    /// [`UploadError`] naming the bad slice, element or parameter.
-    pub fn upload_irradiance(
-        &mut self,
-        field: &IrradianceField<'_>,
-        interpolation: &Interpolation<'_>,
-    ) -> Result<(), UploadError> {
-        self.irradiance = Some(PackedIrradiance::new(field, interpolation)?);
-        Ok(())
-    }
-
-    /// The uploaded light field and selection.
-    fn uploaded(&self) -> Result<(&PackedField, &PackedSelection), TraceError> {
-        match (&self.field, &self.selection) {
-            (Some(field), Some(selection)) => Ok((field, selection)),
-            _ => Err(TraceError::NotUploaded {
-                what: "light field",
-                call: "upload",
-            }),
-        }
-    }
-
-    /// Traces `rays` through the uploaded light field.
-    ///
-    /// # Errors
-    /// [`TraceError::NotUploaded`] before [`Self::upload`]; [`TraceError::BadInput`] for a bad
-    /// ray; [`TraceError::BadOption`] for bad options.
-    pub fn trace(
-        &self,
-        rays: &[TraceRay],
-        options: &TraceOptions,
-    ) -> Result<TraceOutput, TraceError> {
-        let start = Instant::now();
-        let (field, selection) = self.uploaded()?;
-        let params = trace_params(field, selection, options)?;
-        let rays = prepare_rays(rays)?;
-        let records = parallel_map(&rays, |ray| {
-            trace_ray(field, selection, &params, ray, &mut ())
-        });
-        Ok(TraceOutput {
-            results: records.into_iter().map(RayResult::from).collect(),
-            timing: Timing {
-                wall: start.elapsed(),
-                gpu: None,
-            },
-        })
-    }
-
-    /// Traces `rays` as [`Self::trace`] does and returns where their texel fetches went
+    /// Traces `rays` as [`Tracer::trace`] does and returns where their texel fetches went
     /// ([`FetchProfile`]): a diagnostic for choosing options and for profiling the methods.
     ///
     /// # Errors
-    /// As [`Self::trace`].
+    /// As [`Tracer::trace`].
     pub fn profile_fetches(
         &self,
+        field: &CpuField,
         rays: &[TraceRay],
         options: &TraceOptions,
     ) -> Result<FetchProfile, TraceError> {
-        let (field, selection) = self.uploaded()?;
+        let (field, selection) = (&field.field, &field.selection);
         let params = trace_params(field, selection, options)?;
         let rays = prepare_rays(rays)?;
         let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -166,24 +132,67 @@ impl CpuTracer {
         }
         Ok(total)
     }
+}
 
-    /// Shades `points` diffusely from the uploaded irradiance probes.
-    ///
-    /// # Errors
-    /// [`TraceError::NotUploaded`] before [`Self::upload_irradiance`];
-    /// [`TraceError::BadInput`] for a bad point; [`TraceError::BadOption`] for bad options.
-    pub fn shade_diffuse(
+impl Tracer for CpuTracer {
+    type Field = CpuField;
+    type Irradiance = CpuIrradiance;
+
+    fn describe(&self) -> String {
+        "cpu twin".to_owned()
+    }
+
+    fn upload(
         &self,
+        field: &LightField<'_>,
+        selection: &ProbeSelection<'_>,
+        options: &FieldOptions,
+    ) -> Result<CpuField, UploadError> {
+        let field = PackedField::new(field, options)?;
+        let selection = PackedSelection::new(selection, field.probe_count as usize)?;
+        Ok(CpuField { field, selection })
+    }
+
+    fn upload_irradiance(
+        &self,
+        field: &IrradianceField<'_>,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<CpuIrradiance, UploadError> {
+        Ok(CpuIrradiance {
+            irradiance: PackedIrradiance::new(field, interpolation)?,
+        })
+    }
+
+    fn trace(
+        &mut self,
+        field: &CpuField,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let start = Instant::now();
+        let (field, selection) = (&field.field, &field.selection);
+        let params = trace_params(field, selection, options)?;
+        let rays = prepare_rays(rays)?;
+        let records = parallel_map(&rays, |ray| {
+            trace_ray(field, selection, &params, ray, &mut ())
+        });
+        Ok(TraceOutput {
+            results: records.into_iter().map(RayResult::from).collect(),
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu: None,
+            },
+        })
+    }
+
+    fn shade_diffuse(
+        &mut self,
+        irradiance: &CpuIrradiance,
         points: &[ShadingPoint],
         options: &DiffuseOptions,
     ) -> Result<DiffuseOutput, TraceError> {
         let start = Instant::now();
-        let Some(irradiance) = &self.irradiance else {
-            return Err(TraceError::NotUploaded {
-                what: "irradiance field",
-                call: "upload_irradiance",
-            });
-        };
+        let irradiance = &irradiance.irradiance;
         let params = diffuse_params(irradiance, options)?;
         let points = prepare_points(points)?;
         let results = parallel_map(&points, |p| diffuse::shade(irradiance, &params, p));

@@ -1,7 +1,10 @@
-//! The wgpu tracer: a device, two compute pipelines (trace and diffuse shading) built once, and
-//! storage buffers that are reused across calls and grown only when a call needs more.
+//! The wgpu tracer: a device, two compute pipelines (trace and diffuse shading) built once;
+//! uploaded fields as values holding their storage buffers; a recording path that binds the
+//! caller's buffers and records into the caller's command encoder; and the convenience calls
+//! (upload rays, dispatch, read back) built on it.
 
 use std::borrow::Cow;
+use std::num::NonZeroU64;
 use std::time::{Duration, Instant};
 
 use bytemuck::{Pod, Zeroable};
@@ -11,25 +14,84 @@ use crate::cpu::{DiffuseOutput, TraceOutput};
 use crate::error::{GpuError, TraceError, UploadError};
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 use crate::packed::{
-    DiffuseParams, PackedField, PackedIrradiance, PackedSelection, TraceParams, diffuse_params,
-    prepare_points, prepare_rays, trace_params,
+    PackedField, PackedIrradiance, PackedSelection, diffuse_params, prepare_points, prepare_rays,
+    trace_params,
 };
 use crate::ray::{
     DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, Timing, TraceOptions,
     TraceRay,
 };
+use crate::tracer::Tracer;
 
-/// The trace shader: `common.wgsl` followed by `trace.wgsl`.
-pub(crate) const TRACE_WGSL: &str =
-    concat!(include_str!("common.wgsl"), include_str!("trace.wgsl"));
-/// The diffuse shader: `common.wgsl` followed by `diffuse.wgsl`.
-pub(crate) const DIFFUSE_WGSL: &str =
-    concat!(include_str!("common.wgsl"), include_str!("diffuse.wgsl"));
+/// The trace shader's WGSL source (`common.wgsl` followed by `trace.wgsl`), for engines that
+/// build their own pipeline: entry point [`TRACE_ENTRY_POINT`], workgroups of
+/// [`WORKGROUP_SIZE`] threads, one bind group (group 0) laid out as
+/// [`trace_bind_group_layout_entries`] says. [`GpuTracer::bind_trace`] makes a bind group for
+/// that layout from an uploaded field and the caller's ray and result buffers.
+pub const TRACE_WGSL: &str = concat!(include_str!("common.wgsl"), include_str!("trace.wgsl"));
+/// The diffuse shader's WGSL source (`common.wgsl` followed by `diffuse.wgsl`): entry point
+/// [`DIFFUSE_ENTRY_POINT`], layout [`diffuse_bind_group_layout_entries`].
+pub const DIFFUSE_WGSL: &str = concat!(include_str!("common.wgsl"), include_str!("diffuse.wgsl"));
+/// The trace shader's entry point.
+pub const TRACE_ENTRY_POINT: &str = "trace_main";
+/// The diffuse shader's entry point.
+pub const DIFFUSE_ENTRY_POINT: &str = "diffuse_main";
+/// Threads per workgroup in both shaders (`@workgroup_size(64)`): one ray or point each.
+pub const WORKGROUP_SIZE: u32 = 64;
 
-/// Threads per workgroup in both shaders.
-const WORKGROUP: u32 = 64;
-/// Most rays (or points) per dispatch; larger calls are split.
+/// Most rays (or points) per dispatch of the convenience calls; larger calls are split.
 const MAX_CHUNK: usize = 1 << 20;
+
+/// The trace shader's bind group 0, binding by binding:
+///
+/// | binding | type | holds |
+/// |---|---|---|
+/// | 0 | uniform | the trace parameters (`TraceParams` in the WGSL, 256 B): options, selection header, ray count and threads per dispatch row; written by [`GpuTracer::bind_trace`] |
+/// | 1 | storage, read | the rays, [`TraceRay`] (32 B each) |
+/// | 2 | storage, read-write | the results, [`RayRecord`] (64 B each), one per ray in order |
+/// | 3 | storage, read | probe centres, `vec4<f32>` per probe |
+/// | 4 | storage, read | geometry per padded texel, `vec4<u32>`: distance bits (sign bit: farther edge), octahedral snorm16 normal, `near` bits, `far` bits (sign bit: nearer edge) |
+/// | 5 | storage, read | the min/max pyramids, levels 1…, `vec4<u32>` per texel |
+/// | 6 | storage, read | radiance, 3 × f32 per padded texel |
+/// | 7 | storage, read | the selection's words (octree nodes and leaves, or k-d tree and neighbour table) |
+///
+/// Bindings 0 and 3–7 come from the tracer ([`GpuTracer::bind_trace`]); 1 and 2 are the
+/// caller's ([`TraceBuffers`]). All are visible to the compute stage only.
+pub fn trace_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 8] {
+    [
+        uniform_entry(0),
+        storage_entry(1, true),
+        storage_entry(2, false),
+        storage_entry(3, true),
+        storage_entry(4, true),
+        storage_entry(5, true),
+        storage_entry(6, true),
+        storage_entry(7, true),
+    ]
+}
+
+/// The diffuse shader's bind group 0, binding by binding:
+///
+/// | binding | type | holds |
+/// |---|---|---|
+/// | 0 | uniform | the diffuse parameters (`DiffuseParams` in the WGSL, 112 B); written by [`GpuTracer::bind_diffuse`] |
+/// | 1 | storage, read | the shading points, [`ShadingPoint`] (32 B each) |
+/// | 2 | storage, read-write | the results, `vec4<f32>` per point: irradiance RGB, then the weight sum ([`DiffuseResult`]) |
+/// | 3 | storage, read | probe centres, `vec4<f32>` per probe |
+/// | 4 | storage, read | irradiance, 3 × f32 per padded texel |
+/// | 5 | storage, read | distance moments, `vec2<f32>` per padded texel |
+/// | 6 | storage, read | the interpolation's words (grid cage or tetrahedra and k-d tree) |
+pub fn diffuse_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 7] {
+    [
+        uniform_entry(0),
+        storage_entry(1, true),
+        storage_entry(2, false),
+        storage_entry(3, true),
+        storage_entry(4, true),
+        storage_entry(5, true),
+        storage_entry(6, true),
+    ]
+}
 
 /// A wgpu device and queue for the tracer, found by [`GpuContext::new`].
 #[derive(Clone, Debug)]
@@ -143,17 +205,19 @@ struct Pass {
     pipeline: wgpu::ComputePipeline,
 }
 
-/// Per-call buffers of a pass: input items, output items, read-back copy, uniform block.
+/// Per-call buffers of a convenience call: input items, output items, read-back copy.
 struct Io {
     capacity: usize,
     input: wgpu::Buffer,
     output: wgpu::Buffer,
     readback: wgpu::Buffer,
-    uniform: wgpu::Buffer,
 }
 
-/// The light field on the device.
-struct GpuField {
+/// A light field and its probe selection on the device: storage buffers and the parameters
+/// the trace shader needs, made by [`GpuTracer`]'s [`Tracer::upload`]. Hold it as long as you
+/// trace through it; dropping it frees the buffers (once no submitted work uses them).
+pub struct GpuField {
+    tracer: u64,
     meta: PackedField,
     selection: PackedSelection,
     positions: wgpu::Buffer,
@@ -163,8 +227,45 @@ struct GpuField {
     words: wgpu::Buffer,
 }
 
-/// The irradiance field on the device.
-struct GpuIrradiance {
+impl std::fmt::Debug for GpuField {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuField")
+            .field("probe_count", &self.meta.probe_count)
+            .field("resolution", &self.meta.resolution)
+            .field("bytes", &self.bytes())
+            .finish_non_exhaustive()
+    }
+}
+
+impl GpuField {
+    /// Probes in the field.
+    pub fn probe_count(&self) -> u32 {
+        self.meta.probe_count
+    }
+
+    /// Interior texels per side of each probe's maps.
+    pub fn resolution(&self) -> u32 {
+        self.meta.resolution
+    }
+
+    /// Bytes of device memory the field's buffers take.
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.positions,
+            &self.geometry,
+            &self.pyramid,
+            &self.radiance,
+            &self.words,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum()
+    }
+}
+
+/// Irradiance probes on the device, made by [`GpuTracer`]'s [`Tracer::upload_irradiance`].
+pub struct GpuIrradiance {
+    tracer: u64,
     meta: PackedIrradiance,
     positions: wgpu::Buffer,
     irradiance: wgpu::Buffer,
@@ -172,29 +273,172 @@ struct GpuIrradiance {
     words: wgpu::Buffer,
 }
 
-/// The GPU tracer: build it once from a device, [`upload`](Self::upload) probes, then
-/// [`trace`](Self::trace) as many ray sets as needed. Pipelines are created once; per-call
-/// buffers are reused and grow only when a call needs more.
+impl std::fmt::Debug for GpuIrradiance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuIrradiance")
+            .field("probe_count", &self.meta.probe_count)
+            .finish_non_exhaustive()
+    }
+}
+
+impl GpuIrradiance {
+    /// Probes in the field.
+    pub fn probe_count(&self) -> u32 {
+        self.meta.probe_count
+    }
+}
+
+/// The caller's buffers for recording a trace on the device ([`GpuTracer::bind_trace`],
+/// [`GpuTracer::record_trace`]).
+///
+/// - `rays`: `count` [`TraceRay`]s (32 bytes each, tightly packed from offset 0), usage
+///   [`wgpu::BufferUsages::STORAGE`] (plus whatever fills it: `COPY_DST` for uploads, nothing
+///   more when a compute pass of yours writes it). Directions must be unit length and ranges
+///   `0 <= t_min <= t_max` with `t_min` finite: the device cannot check what is in a buffer,
+///   and does not normalise (the convenience [`Tracer::trace`] checks and normalises on the
+///   CPU before it uploads).
+/// - `results`: room for `count` [`RayRecord`]s (64 bytes each), usage `STORAGE` (plus
+///   `COPY_SRC` to read them back, if you do). Ray `i`'s record is written at index `i`.
+/// - `count`: rays to trace, from the start of both buffers.
+#[derive(Clone, Copy, Debug)]
+pub struct TraceBuffers<'a> {
+    /// The rays.
+    pub rays: &'a wgpu::Buffer,
+    /// Where the results go.
+    pub results: &'a wgpu::Buffer,
+    /// How many rays.
+    pub count: u32,
+}
+
+/// The caller's buffers for recording diffuse shading ([`GpuTracer::bind_diffuse`],
+/// [`GpuTracer::record_diffuse`]).
+///
+/// - `points`: `count` [`ShadingPoint`]s (32 bytes each), usage `STORAGE`; normals must be
+///   unit length and everything finite (not checked on the device).
+/// - `results`: room for `count` `vec4<f32>` (16 bytes each: irradiance RGB, then the weight
+///   sum, as in [`DiffuseResult`]), usage `STORAGE`.
+/// - `count`: points to shade, from the start of both buffers.
+#[derive(Clone, Copy, Debug)]
+pub struct DiffuseBuffers<'a> {
+    /// The shading points.
+    pub points: &'a wgpu::Buffer,
+    /// Where the results go.
+    pub results: &'a wgpu::Buffer,
+    /// How many points.
+    pub count: u32,
+}
+
+/// A bound dispatch: pipeline, bind group and workgroup grid.
+#[derive(Clone, Debug)]
+struct Bound {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    workgroups: [u32; 3],
+    count: u32,
+}
+
+impl Bound {
+    fn record_in_pass(&self, pass: &mut wgpu::ComputePass<'_>) {
+        if self.count == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        let [x, y, z] = self.workgroups;
+        pass.dispatch_workgroups(x, y, z);
+    }
+
+    fn record(&self, encoder: &mut wgpu::CommandEncoder, label: &str) {
+        if self.count == 0 {
+            return;
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: None,
+        });
+        self.record_in_pass(&mut pass);
+    }
+}
+
+/// One trace, bound and ready to record: the tracer's pipeline, a bind group over the field
+/// and the caller's [`TraceBuffers`] with its own parameter block, and the workgroup grid.
+/// Made by [`GpuTracer::bind_trace`]; record it every frame the buffers' contents change
+/// (nothing is allocated per record), and bind again only when the field, the buffers, the
+/// count or the options do.
+#[derive(Clone, Debug)]
+pub struct TraceBinding {
+    bound: Bound,
+}
+
+/// One diffuse shading pass, bound and ready to record ([`GpuTracer::bind_diffuse`]).
+#[derive(Clone, Debug)]
+pub struct DiffuseBinding {
+    bound: Bound,
+}
+
+macro_rules! binding_methods {
+    ($name:ident, $label:literal) => {
+        impl $name {
+            /// Records the dispatch into `encoder` in a compute pass of its own. Nothing is
+            /// submitted, waited for or read back; passes recorded after it in the same
+            /// encoder (or later submissions) see its results. Records nothing for a count
+            /// of 0.
+            pub fn record(&self, encoder: &mut wgpu::CommandEncoder) {
+                self.bound.record(encoder, $label);
+            }
+
+            /// Records the dispatch into a compute pass the caller has begun (it sets the
+            /// pipeline and bind group 0, which the caller's next dispatch must set again).
+            pub fn record_in_pass(&self, pass: &mut wgpu::ComputePass<'_>) {
+                self.bound.record_in_pass(pass);
+            }
+
+            /// The bind group (group 0 of the layout), for a pipeline of the caller's own
+            /// built from the same WGSL and layout.
+            pub fn bind_group(&self) -> &wgpu::BindGroup {
+                &self.bound.bind_group
+            }
+
+            /// The workgroup grid `[x, y, 1]` the parameter block was written for: dispatch
+            /// exactly this with a pipeline of your own.
+            pub fn workgroups(&self) -> [u32; 3] {
+                self.bound.workgroups
+            }
+
+            /// Items (rays or points) bound.
+            pub fn count(&self) -> u32 {
+                self.bound.count
+            }
+        }
+    };
+}
+binding_methods!(TraceBinding, "probe trace");
+binding_methods!(DiffuseBinding, "probe diffuse");
+
+/// The GPU tracer: build it once from a device, [`Tracer::upload`] probes (getting a
+/// [`GpuField`]), then trace ray sets through it: [`Tracer::trace`] from a slice (upload,
+/// dispatch, read back), or [`Self::record_trace`] from rays already on the device into the
+/// caller's command encoder. Pipelines are created once; the convenience calls' buffers are
+/// reused and grow only when a call needs more.
 pub struct GpuTracer {
+    /// Tags the fields this tracer uploads (wgpu's device equality compares ids, which
+    /// devices of different instances can share).
+    id: u64,
     device: wgpu::Device,
     queue: wgpu::Queue,
     limits: wgpu::Limits,
+    adapter: Option<String>,
     timestamps: Option<Timestamps>,
     trace_pass: Pass,
     diffuse_pass: Pass,
-    field: Option<GpuField>,
-    irradiance: Option<GpuIrradiance>,
     trace_io: Option<Io>,
     diffuse_io: Option<Io>,
-    trace_bind_group: Option<wgpu::BindGroup>,
-    diffuse_bind_group: Option<wgpu::BindGroup>,
 }
 
 impl std::fmt::Debug for GpuTracer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("GpuTracer")
-            .field("field_uploaded", &self.field.is_some())
-            .field("irradiance_uploaded", &self.irradiance.is_some())
+            .field("adapter", &self.adapter)
             .field("timestamps", &self.timestamps.is_some())
             .finish_non_exhaustive()
     }
@@ -226,17 +470,17 @@ fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Builds a pipeline over `[uniform, input, output, extra read-only storage…]`.
-fn make_pass(device: &wgpu::Device, label: &str, source: &str, entry: &str, extra: u32) -> Pass {
-    let mut entries = vec![
-        uniform_entry(0),
-        storage_entry(1, true),
-        storage_entry(2, false),
-    ];
-    entries.extend((0..extra).map(|i| storage_entry(3 + i, true)));
+/// Builds a pipeline over the bind-group layout `entries`.
+fn make_pass(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+    entry: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> Pass {
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
-        entries: &entries,
+        entries,
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
@@ -258,13 +502,53 @@ fn make_pass(device: &wgpu::Device, label: &str, source: &str, entry: &str, extr
     Pass { layout, pipeline }
 }
 
+/// A caller's input or output buffer checked for `count` items of `stride` bytes: bound from
+/// offset 0 over exactly those items (at least one).
+fn checked_binding<'a>(
+    name: &'static str,
+    buffer: &'a wgpu::Buffer,
+    count: u32,
+    stride: u64,
+) -> Result<wgpu::BufferBinding<'a>, TraceError> {
+    if !buffer.usage().contains(wgpu::BufferUsages::STORAGE) {
+        return Err(TraceError::BadBuffer {
+            buffer: name,
+            reason: format!(
+                "its usage is {:?}; it needs wgpu::BufferUsages::STORAGE",
+                buffer.usage()
+            ),
+        });
+    }
+    let needed = u64::from(count.max(1)) * stride;
+    if buffer.size() < needed {
+        return Err(TraceError::BadBuffer {
+            buffer: name,
+            reason: format!(
+                "it holds {} bytes; {} items of {stride} bytes need {needed} (at least one item)",
+                buffer.size(),
+                count.max(1)
+            ),
+        });
+    }
+    Ok(wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: NonZeroU64::new(needed),
+    })
+}
+
 impl GpuTracer {
     /// A tracer on the context's device.
     ///
     /// # Errors
     /// [`GpuError::Unsupported`] if the device cannot build the pipelines.
     pub fn new(context: &GpuContext) -> Result<Self, GpuError> {
-        Self::from_device(context.device.clone(), context.queue.clone())
+        let mut tracer = Self::from_device(context.device.clone(), context.queue.clone())?;
+        tracer.adapter = Some(format!(
+            "{} ({:?})",
+            context.info.name, context.info.backend
+        ));
+        Ok(tracer)
     }
 
     /// A tracer on an existing device (for engines that own theirs). Timestamp queries are
@@ -285,14 +569,26 @@ impl GpuTracer {
                 limits.max_storage_buffers_per_shader_stage
             )));
         }
-        if limits.max_compute_invocations_per_workgroup < WORKGROUP {
+        if limits.max_compute_invocations_per_workgroup < WORKGROUP_SIZE {
             return Err(unsupported(
                 "it cannot run 64-thread compute workgroups".to_owned(),
             ));
         }
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let trace_pass = make_pass(&device, "probe trace", TRACE_WGSL, "trace_main", 5);
-        let diffuse_pass = make_pass(&device, "probe diffuse", DIFFUSE_WGSL, "diffuse_main", 4);
+        let trace_pass = make_pass(
+            &device,
+            "probe trace",
+            TRACE_WGSL,
+            TRACE_ENTRY_POINT,
+            &trace_bind_group_layout_entries(),
+        );
+        let diffuse_pass = make_pass(
+            &device,
+            "probe diffuse",
+            DIFFUSE_WGSL,
+            DIFFUSE_ENTRY_POINT,
+            &diffuse_bind_group_layout_entries(),
+        );
         if let Some(error) = pollster::block_on(scope.pop()) {
             return Err(unsupported(format!("the shaders failed to build: {error}")));
         }
@@ -319,25 +615,50 @@ impl GpuTracer {
                 }),
                 period_ns: queue.get_timestamp_period(),
             });
+        static NEXT_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
         Ok(Self {
+            id: NEXT_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             device,
             queue,
             limits,
+            adapter: None,
             timestamps,
             trace_pass,
             diffuse_pass,
-            field: None,
-            irradiance: None,
             trace_io: None,
             diffuse_io: None,
-            trace_bind_group: None,
-            diffuse_bind_group: None,
         })
     }
 
     /// Whether this device measures pass times with timestamp queries.
     pub fn has_timestamps(&self) -> bool {
         self.timestamps.is_some()
+    }
+
+    /// The device the tracer runs on.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The trace pipeline's bind-group layout ([`trace_bind_group_layout_entries`] on this
+    /// device), for a pipeline layout of the caller's own.
+    pub fn trace_bind_group_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.trace_pass.layout
+    }
+
+    /// The diffuse pipeline's bind-group layout ([`diffuse_bind_group_layout_entries`]).
+    pub fn diffuse_bind_group_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.diffuse_pass.layout
+    }
+
+    /// The trace compute pipeline ([`TRACE_WGSL`] at [`TRACE_ENTRY_POINT`]).
+    pub fn trace_pipeline(&self) -> &wgpu::ComputePipeline {
+        &self.trace_pass.pipeline
+    }
+
+    /// The diffuse compute pipeline ([`DIFFUSE_WGSL`] at [`DIFFUSE_ENTRY_POINT`]).
+    pub fn diffuse_pipeline(&self) -> &wgpu::ComputePipeline {
+        &self.diffuse_pass.pipeline
     }
 
     /// A read-only storage buffer holding `data`, checked against the device's limits.
@@ -347,10 +668,7 @@ impl GpuTracer {
         data: &[u8],
     ) -> Result<wgpu::Buffer, UploadError> {
         let bytes = data.len() as u64;
-        let limit = self
-            .limits
-            .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size);
+        let limit = self.binding_limit();
         if bytes > limit {
             return Err(UploadError::TooLarge {
                 buffer: label,
@@ -367,279 +685,230 @@ impl GpuTracer {
             }))
     }
 
-    /// Checks a light field and its selection and uploads them (replacing any earlier one).
-    ///
-    /// # Errors
-    /// [`UploadError`] naming the bad slice, element or parameter, or the buffer that does not
-    /// fit the device's limits.
-    pub fn upload(
-        &mut self,
-        field: &LightField<'_>,
-        selection: &ProbeSelection<'_>,
-        options: &FieldOptions,
-    ) -> Result<(), UploadError> {
-        let mut meta = PackedField::new(field, options)?;
-        let selection = PackedSelection::new(selection, meta.probe_count as usize)?;
-        let positions = self.storage_buffer("positions", bytemuck::cast_slice(&meta.positions))?;
-        let geometry = self.storage_buffer("geometry", bytemuck::cast_slice(&meta.geometry))?;
-        let pyramid_data: &[[u32; 4]] = if meta.pyramid.is_empty() {
-            &[[0; 4]]
-        } else {
-            &meta.pyramid
-        };
-        let pyramid = self.storage_buffer("pyramid", bytemuck::cast_slice(pyramid_data))?;
-        let radiance = self.storage_buffer("radiance", bytemuck::cast_slice(&meta.radiance))?;
-        let words = self.storage_buffer("selection", bytemuck::cast_slice(&selection.words))?;
-        // The device holds the data now; keep only the parameters.
-        meta.geometry = Vec::new();
-        meta.pyramid = Vec::new();
-        meta.radiance = Vec::new();
-        self.field = Some(GpuField {
-            meta,
-            selection,
-            positions,
-            geometry,
-            pyramid,
-            radiance,
-            words,
-        });
-        self.trace_bind_group = None;
-        Ok(())
-    }
-
-    /// Checks and uploads irradiance and moment maps and the interpolation scheme.
-    ///
-    /// # Errors
-    /// As [`Self::upload`].
-    pub fn upload_irradiance(
-        &mut self,
-        field: &IrradianceField<'_>,
-        interpolation: &Interpolation<'_>,
-    ) -> Result<(), UploadError> {
-        let mut meta = PackedIrradiance::new(field, interpolation)?;
-        let positions = self.storage_buffer(
-            "irradiance positions",
-            bytemuck::cast_slice(&meta.positions),
-        )?;
-        let irradiance =
-            self.storage_buffer("irradiance", bytemuck::cast_slice(&meta.irradiance))?;
-        let moments = self.storage_buffer("moments", bytemuck::cast_slice(&meta.moments))?;
-        let words = self.storage_buffer("interpolation", bytemuck::cast_slice(&meta.words))?;
-        meta.irradiance = Vec::new();
-        meta.moments = Vec::new();
-        meta.words = Vec::new();
-        self.irradiance = Some(GpuIrradiance {
-            meta,
-            positions,
-            irradiance,
-            moments,
-            words,
-        });
-        self.diffuse_bind_group = None;
-        Ok(())
-    }
-
-    /// Items per dispatch for items of `in_size` and results of `out_size` bytes.
-    fn chunk_limit(&self, in_size: usize, out_size: usize) -> usize {
-        let limit = self
-            .limits
+    /// The largest storage binding this device allows.
+    fn binding_limit(&self) -> u64 {
+        self.limits
             .max_storage_buffer_binding_size
-            .min(self.limits.max_buffer_size) as usize;
-        MAX_CHUNK.min(limit / in_size.max(out_size)).max(1)
+            .min(self.limits.max_buffer_size)
     }
 
-    /// Traces `rays` on the device.
-    ///
-    /// # Errors
-    /// [`TraceError::NotUploaded`] before [`Self::upload`]; [`TraceError::BadInput`] for a bad
-    /// ray; [`TraceError::BadOption`] for bad options; [`TraceError::Device`] if the device
-    /// fails.
-    pub fn trace(
-        &mut self,
-        rays: &[TraceRay],
-        options: &TraceOptions,
-    ) -> Result<TraceOutput, TraceError> {
-        let start = Instant::now();
-        let Some(field) = &self.field else {
-            return Err(TraceError::NotUploaded {
-                what: "light field",
-                call: "upload",
-            });
-        };
-        let mut params = trace_params(&field.meta, &field.selection, options)?;
-        let rays = prepare_rays(rays)?;
-        let chunk = self.chunk_limit(size_of::<TraceRay>(), size_of::<RayRecord>());
-        let items = rays.len().min(chunk);
-        if ensure_io::<TraceRay, RayRecord, TraceParams>(
-            &self.device,
-            &mut self.trace_io,
-            items,
-            "trace",
-        ) {
-            self.trace_bind_group = None;
+    /// `Err(ForeignField)` unless this tracer uploaded the field tagged `tracer`.
+    fn check_owner(&self, tracer: u64) -> Result<(), TraceError> {
+        if tracer == self.id {
+            Ok(())
+        } else {
+            Err(TraceError::ForeignField {
+                uploaded_by: format!("another GPU tracer (number {tracer})"),
+                tracer: format!("{} (number {})", Tracer::describe(self), self.id),
+            })
         }
-        if self.trace_bind_group.is_none() {
-            let field = self.field.as_ref().expect("checked above");
-            let io = self.trace_io.as_ref().expect("ensured above");
-            self.trace_bind_group =
-                Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("probe trace"),
-                    layout: &self.trace_pass.layout,
-                    entries: &bind_entries(&[
-                        &io.uniform,
-                        &io.input,
-                        &io.output,
-                        &field.positions,
-                        &field.geometry,
-                        &field.pyramid,
-                        &field.radiance,
-                        &field.words,
-                    ]),
-                }));
-        }
-        let mut results = Vec::with_capacity(rays.len());
-        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
-        for part in rays.chunks(chunk) {
-            let (groups_x, groups_y, row) = self.grid_of(part.len());
-            params.ray_count = part.len() as u32;
-            params.threads_per_row = row;
-            let (records, time) = self.dispatch::<TraceRay, RayRecord>(
-                true,
-                part,
-                bytemuck::bytes_of(&params),
-                (groups_x, groups_y),
-            )?;
-            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
-                *total += t;
-            }
-            results.extend(records.into_iter().map(RayResult::from));
-        }
-        Ok(TraceOutput {
-            results,
-            timing: Timing {
-                wall: start.elapsed(),
-                gpu,
-            },
-        })
     }
 
-    /// Shades `points` diffusely from the uploaded irradiance probes on the device.
-    ///
-    /// # Errors
-    /// [`TraceError::NotUploaded`] before [`Self::upload_irradiance`];
-    /// [`TraceError::BadInput`] for a bad point; [`TraceError::BadOption`] for bad options;
-    /// [`TraceError::Device`] if the device fails.
-    pub fn shade_diffuse(
-        &mut self,
-        points: &[ShadingPoint],
-        options: &DiffuseOptions,
-    ) -> Result<DiffuseOutput, TraceError> {
-        let start = Instant::now();
-        let Some(irradiance) = &self.irradiance else {
-            return Err(TraceError::NotUploaded {
-                what: "irradiance field",
-                call: "upload_irradiance",
-            });
-        };
-        let mut params = diffuse_params(&irradiance.meta, options)?;
-        let points = prepare_points(points)?;
-        let chunk = self.chunk_limit(size_of::<ShadingPoint>(), 16);
-        let items = points.len().min(chunk);
-        if ensure_io::<ShadingPoint, [f32; 4], DiffuseParams>(
-            &self.device,
-            &mut self.diffuse_io,
-            items,
-            "diffuse",
-        ) {
-            self.diffuse_bind_group = None;
-        }
-        if self.diffuse_bind_group.is_none() {
-            let ir = self.irradiance.as_ref().expect("checked above");
-            let io = self.diffuse_io.as_ref().expect("ensured above");
-            self.diffuse_bind_group =
-                Some(self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("probe diffuse"),
-                    layout: &self.diffuse_pass.layout,
-                    entries: &bind_entries(&[
-                        &io.uniform,
-                        &io.input,
-                        &io.output,
-                        &ir.positions,
-                        &ir.irradiance,
-                        &ir.moments,
-                        &ir.words,
-                    ]),
-                }));
-        }
-        let mut results = Vec::with_capacity(points.len());
-        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
-        for part in points.chunks(chunk) {
-            let (groups_x, groups_y, row) = self.grid_of(part.len());
-            params.point_count = part.len() as u32;
-            params.threads_per_row = row;
-            let (out, time) = self.dispatch::<ShadingPoint, [f32; 4]>(
-                false,
-                part,
-                bytemuck::bytes_of(&params),
-                (groups_x, groups_y),
-            )?;
-            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
-                *total += t;
-            }
-            results.extend(out.into_iter().map(|v| DiffuseResult {
-                irradiance: glam::Vec3::new(v[0], v[1], v[2]),
-                weight: v[3],
-            }));
-        }
-        Ok(DiffuseOutput {
-            results,
-            timing: Timing {
-                wall: start.elapsed(),
-                gpu,
-            },
-        })
-    }
-
-    /// Workgroups `(x, y)` and threads per row for `items` invocations.
-    fn grid_of(&self, items: usize) -> (u32, u32, u32) {
-        let groups = (items as u32).div_ceil(WORKGROUP).max(1);
+    /// Workgroups `[x, y, 1]` and threads per row for `count` invocations.
+    fn grid_of(&self, item: &'static str, count: u32) -> Result<([u32; 3], u32), TraceError> {
+        let groups = count.div_ceil(WORKGROUP_SIZE).max(1);
         let max = self.limits.max_compute_workgroups_per_dimension.max(1);
         let x = groups.min(max);
         let y = groups.div_ceil(x);
-        (x, y, x * WORKGROUP)
+        if y > max {
+            return Err(TraceError::TooManyItems {
+                item,
+                count: u64::from(count),
+                limit: u64::from(max) * u64::from(max) * u64::from(WORKGROUP_SIZE),
+            });
+        }
+        Ok(([x, y, 1], x * WORKGROUP_SIZE))
     }
 
-    /// Runs one dispatch of the trace (`trace = true`) or diffuse pass over `items` and reads
-    /// the results back.
-    fn dispatch<In: Pod, Out: Pod>(
+    /// Checks `count` items of `stride` bytes against the device's binding limit.
+    fn check_count(&self, item: &'static str, count: u32, stride: u64) -> Result<(), TraceError> {
+        let limit = self.binding_limit() / stride;
+        if u64::from(count) > limit {
+            return Err(TraceError::TooManyItems {
+                item,
+                count: u64::from(count),
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    /// Binds a trace of `buffers.count` rays from `buffers.rays` into `buffers.results`
+    /// through `field` with `options`: checks everything that can be checked on the CPU, writes
+    /// the parameter block (its own small uniform buffer, so several bindings can be recorded
+    /// into one encoder) and makes the bind group. Blocks on nothing.
+    ///
+    /// # Errors
+    /// [`TraceError::BadOption`] for bad options; [`TraceError::BadBuffer`] for a buffer
+    /// without `STORAGE` usage, too small for `count`, or the same buffer for rays and
+    /// results; [`TraceError::TooManyItems`] when `count` rays exceed what the device can bind
+    /// at once; [`TraceError::ForeignField`] for a field another tracer uploaded.
+    pub fn bind_trace(
         &self,
-        trace: bool,
-        items: &[In],
-        uniform: &[u8],
-        groups: (u32, u32),
+        field: &GpuField,
+        buffers: &TraceBuffers<'_>,
+        options: &TraceOptions,
+    ) -> Result<TraceBinding, TraceError> {
+        self.check_owner(field.tracer)?;
+        let mut params = trace_params(&field.meta, &field.selection, options)?;
+        let (ray_size, record_size) = (size_of::<TraceRay>() as u64, size_of::<RayRecord>() as u64);
+        self.check_count("ray", buffers.count, ray_size.max(record_size))?;
+        if buffers.rays == buffers.results {
+            return Err(TraceError::BadBuffer {
+                buffer: "results",
+                reason: "it is the rays buffer; the shader reads one and writes the other"
+                    .to_owned(),
+            });
+        }
+        let rays = checked_binding("rays", buffers.rays, buffers.count, ray_size)?;
+        let results = checked_binding("results", buffers.results, buffers.count, record_size)?;
+        let (workgroups, row) = self.grid_of("ray", buffers.count)?;
+        params.ray_count = buffers.count;
+        params.threads_per_row = row;
+        let uniform = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("probe trace parameters"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("probe trace"),
+            layout: &self.trace_pass.layout,
+            entries: &bind_entries([
+                uniform.as_entire_buffer_binding(),
+                rays,
+                results,
+                field.positions.as_entire_buffer_binding(),
+                field.geometry.as_entire_buffer_binding(),
+                field.pyramid.as_entire_buffer_binding(),
+                field.radiance.as_entire_buffer_binding(),
+                field.words.as_entire_buffer_binding(),
+            ]),
+        });
+        Ok(TraceBinding {
+            bound: Bound {
+                pipeline: self.trace_pass.pipeline.clone(),
+                bind_group,
+                workgroups,
+                count: buffers.count,
+            },
+        })
+    }
+
+    /// Records a trace of the rays in `buffers.rays` into `buffers.results` into the caller's
+    /// `encoder`, in a compute pass of its own: no submission, no waiting, no read-back. The
+    /// results are there for passes recorded after it (or later submissions). The same as
+    /// [`Self::bind_trace`] then [`TraceBinding::record`]; bind once and record the binding
+    /// to avoid making a bind group per frame.
+    ///
+    /// # Errors
+    /// As [`Self::bind_trace`].
+    pub fn record_trace(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        field: &GpuField,
+        buffers: &TraceBuffers<'_>,
+        options: &TraceOptions,
+    ) -> Result<(), TraceError> {
+        self.bind_trace(field, buffers, options)?.record(encoder);
+        Ok(())
+    }
+
+    /// Binds diffuse shading of `buffers.count` points from `buffers.points` into
+    /// `buffers.results` with `irradiance` and `options` (see [`Self::bind_trace`]).
+    ///
+    /// # Errors
+    /// As [`Self::bind_trace`], for points.
+    pub fn bind_diffuse(
+        &self,
+        irradiance: &GpuIrradiance,
+        buffers: &DiffuseBuffers<'_>,
+        options: &DiffuseOptions,
+    ) -> Result<DiffuseBinding, TraceError> {
+        self.check_owner(irradiance.tracer)?;
+        let mut params = diffuse_params(&irradiance.meta, options)?;
+        let point_size = size_of::<ShadingPoint>() as u64;
+        self.check_count("shading point", buffers.count, point_size)?;
+        if buffers.points == buffers.results {
+            return Err(TraceError::BadBuffer {
+                buffer: "results",
+                reason: "it is the points buffer; the shader reads one and writes the other"
+                    .to_owned(),
+            });
+        }
+        let points = checked_binding("points", buffers.points, buffers.count, point_size)?;
+        let results = checked_binding("results", buffers.results, buffers.count, 16)?;
+        let (workgroups, row) = self.grid_of("shading point", buffers.count)?;
+        params.point_count = buffers.count;
+        params.threads_per_row = row;
+        let uniform = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("probe diffuse parameters"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("probe diffuse"),
+            layout: &self.diffuse_pass.layout,
+            entries: &bind_entries([
+                uniform.as_entire_buffer_binding(),
+                points,
+                results,
+                irradiance.positions.as_entire_buffer_binding(),
+                irradiance.irradiance.as_entire_buffer_binding(),
+                irradiance.moments.as_entire_buffer_binding(),
+                irradiance.words.as_entire_buffer_binding(),
+            ]),
+        });
+        Ok(DiffuseBinding {
+            bound: Bound {
+                pipeline: self.diffuse_pass.pipeline.clone(),
+                bind_group,
+                workgroups,
+                count: buffers.count,
+            },
+        })
+    }
+
+    /// Records diffuse shading of the points in `buffers.points` into `buffers.results` into
+    /// the caller's `encoder` (see [`Self::record_trace`]).
+    ///
+    /// # Errors
+    /// As [`Self::bind_diffuse`].
+    pub fn record_diffuse(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        irradiance: &GpuIrradiance,
+        buffers: &DiffuseBuffers<'_>,
+        options: &DiffuseOptions,
+    ) -> Result<(), TraceError> {
+        self.bind_diffuse(irradiance, buffers, options)?
+            .record(encoder);
+        Ok(())
+    }
+
+    /// Items per dispatch of the convenience calls for items of `in_size` and results of
+    /// `out_size` bytes.
+    fn chunk_limit(&self, in_size: usize, out_size: usize) -> usize {
+        MAX_CHUNK
+            .min(self.binding_limit() as usize / in_size.max(out_size))
+            .max(1)
+    }
+
+    /// Submits one bound dispatch over `input` (written into `io.input` first), with
+    /// timestamps when the device has them, and reads `count` results back.
+    fn run<Out: Pod>(
+        &self,
+        bound: &Bound,
+        io: &Io,
+        input: &[u8],
     ) -> Result<(Vec<Out>, Option<Duration>), TraceError> {
-        let (pass, io, bind_group) = if trace {
-            (
-                &self.trace_pass,
-                self.trace_io.as_ref(),
-                self.trace_bind_group.as_ref(),
-            )
-        } else {
-            (
-                &self.diffuse_pass,
-                self.diffuse_io.as_ref(),
-                self.diffuse_bind_group.as_ref(),
-            )
-        };
-        let (Some(io), Some(bind_group)) = (io, bind_group) else {
-            unreachable!("buffers and bind group are made before dispatching");
-        };
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let memory_scope = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        self.queue.write_buffer(&io.uniform, 0, uniform);
-        self.queue
-            .write_buffer(&io.input, 0, bytemuck::cast_slice(items));
-        let out_bytes = (items.len() * size_of::<Out>()) as u64;
+        self.queue.write_buffer(&io.input, 0, input);
+        let out_bytes = u64::from(bound.count) * size_of::<Out>() as u64;
         let mut encoder = self
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -656,9 +925,7 @@ impl GpuTracer {
                     }
                 }),
             });
-            cpass.set_pipeline(&pass.pipeline);
-            cpass.set_bind_group(0, bind_group, &[]);
-            cpass.dispatch_workgroups(groups.0, groups.1, 1);
+            bound.record_in_pass(&mut cpass);
         }
         encoder.copy_buffer_to_buffer(&io.output, 0, &io.readback, 0, out_bytes);
         if let Some(t) = &self.timestamps {
@@ -691,27 +958,205 @@ impl GpuTracer {
     }
 }
 
-/// Bind-group entries for buffers bound in order from binding 0.
-fn bind_entries<'a>(buffers: &[&'a wgpu::Buffer]) -> Vec<wgpu::BindGroupEntry<'a>> {
-    buffers
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: b.as_entire_binding(),
+impl Tracer for GpuTracer {
+    type Field = GpuField;
+    type Irradiance = GpuIrradiance;
+
+    /// `"gpu: ADAPTER (BACKEND)"` for a tracer made from a [`GpuContext`], `"gpu: the
+    /// caller's device"` for one made [`from_device`](GpuTracer::from_device).
+    fn describe(&self) -> String {
+        match &self.adapter {
+            Some(adapter) => format!("gpu: {adapter}"),
+            None => "gpu: the caller's device".to_owned(),
+        }
+    }
+
+    fn upload(
+        &self,
+        field: &LightField<'_>,
+        selection: &ProbeSelection<'_>,
+        options: &FieldOptions,
+    ) -> Result<GpuField, UploadError> {
+        let mut meta = PackedField::new(field, options)?;
+        let selection = PackedSelection::new(selection, meta.probe_count as usize)?;
+        let positions = self.storage_buffer("positions", bytemuck::cast_slice(&meta.positions))?;
+        let geometry = self.storage_buffer("geometry", bytemuck::cast_slice(&meta.geometry))?;
+        let pyramid_data: &[[u32; 4]] = if meta.pyramid.is_empty() {
+            &[[0; 4]]
+        } else {
+            &meta.pyramid
+        };
+        let pyramid = self.storage_buffer("pyramid", bytemuck::cast_slice(pyramid_data))?;
+        let radiance = self.storage_buffer("radiance", bytemuck::cast_slice(&meta.radiance))?;
+        let words = self.storage_buffer("selection", bytemuck::cast_slice(&selection.words))?;
+        // The device holds the data now; keep only the parameters.
+        meta.geometry = Vec::new();
+        meta.pyramid = Vec::new();
+        meta.radiance = Vec::new();
+        Ok(GpuField {
+            tracer: self.id,
+            meta,
+            selection,
+            positions,
+            geometry,
+            pyramid,
+            radiance,
+            words,
         })
-        .collect()
+    }
+
+    fn upload_irradiance(
+        &self,
+        field: &IrradianceField<'_>,
+        interpolation: &Interpolation<'_>,
+    ) -> Result<GpuIrradiance, UploadError> {
+        let mut meta = PackedIrradiance::new(field, interpolation)?;
+        let positions = self.storage_buffer(
+            "irradiance positions",
+            bytemuck::cast_slice(&meta.positions),
+        )?;
+        let irradiance =
+            self.storage_buffer("irradiance", bytemuck::cast_slice(&meta.irradiance))?;
+        let moments = self.storage_buffer("moments", bytemuck::cast_slice(&meta.moments))?;
+        let words = self.storage_buffer("interpolation", bytemuck::cast_slice(&meta.words))?;
+        meta.irradiance = Vec::new();
+        meta.moments = Vec::new();
+        meta.words = Vec::new();
+        Ok(GpuIrradiance {
+            tracer: self.id,
+            meta,
+            positions,
+            irradiance,
+            moments,
+            words,
+        })
+    }
+
+    /// Traces `rays`: checks and normalises them on the CPU, then per chunk of at most 2²⁰
+    /// rays writes them into the tracer's own buffers, records the trace with
+    /// [`GpuTracer::bind_trace`] (the recording path) and reads the results back.
+    fn trace(
+        &mut self,
+        field: &GpuField,
+        rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let start = Instant::now();
+        self.check_owner(field.tracer)?;
+        trace_params(&field.meta, &field.selection, options)?;
+        let rays = prepare_rays(rays)?;
+        let chunk = self.chunk_limit(size_of::<TraceRay>(), size_of::<RayRecord>());
+        ensure_io::<TraceRay, RayRecord>(
+            &self.device,
+            &mut self.trace_io,
+            rays.len().min(chunk),
+            "trace",
+        );
+        let io = self.trace_io.as_ref().expect("ensured above");
+        let mut results = Vec::with_capacity(rays.len());
+        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
+        for part in rays.chunks(chunk) {
+            let binding = self.bind_trace(
+                field,
+                &TraceBuffers {
+                    rays: &io.input,
+                    results: &io.output,
+                    count: part.len() as u32,
+                },
+                options,
+            )?;
+            let (records, time) =
+                self.run::<RayRecord>(&binding.bound, io, bytemuck::cast_slice(part))?;
+            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
+                *total += t;
+            }
+            results.extend(records.into_iter().map(RayResult::from));
+        }
+        Ok(TraceOutput {
+            results,
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu,
+            },
+        })
+    }
+
+    /// Shades `points`: checked on the CPU, then chunk by chunk through
+    /// [`GpuTracer::bind_diffuse`] and read back.
+    fn shade_diffuse(
+        &mut self,
+        irradiance: &GpuIrradiance,
+        points: &[ShadingPoint],
+        options: &DiffuseOptions,
+    ) -> Result<DiffuseOutput, TraceError> {
+        let start = Instant::now();
+        self.check_owner(irradiance.tracer)?;
+        diffuse_params(&irradiance.meta, options)?;
+        let points = prepare_points(points)?;
+        let chunk = self.chunk_limit(size_of::<ShadingPoint>(), 16);
+        ensure_io::<ShadingPoint, [f32; 4]>(
+            &self.device,
+            &mut self.diffuse_io,
+            points.len().min(chunk),
+            "diffuse",
+        );
+        let io = self.diffuse_io.as_ref().expect("ensured above");
+        let mut results = Vec::with_capacity(points.len());
+        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
+        for part in points.chunks(chunk) {
+            let binding = self.bind_diffuse(
+                irradiance,
+                &DiffuseBuffers {
+                    points: &io.input,
+                    results: &io.output,
+                    count: part.len() as u32,
+                },
+                options,
+            )?;
+            let (out, time) =
+                self.run::<[f32; 4]>(&binding.bound, io, bytemuck::cast_slice(part))?;
+            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
+                *total += t;
+            }
+            results.extend(out.into_iter().map(|v| DiffuseResult {
+                irradiance: glam::Vec3::new(v[0], v[1], v[2]),
+                weight: v[3],
+            }));
+        }
+        Ok(DiffuseOutput {
+            results,
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu,
+            },
+        })
+    }
 }
 
-/// Makes sure `io` holds at least `items` items; returns whether buffers were (re)made.
-fn ensure_io<In: Pod, Out: Pod, U: Pod>(
+/// Bind-group entries for buffer bindings in order from binding 0.
+fn bind_entries<'a, const N: usize>(
+    buffers: [wgpu::BufferBinding<'a>; N],
+) -> [wgpu::BindGroupEntry<'a>; N] {
+    let mut binding = 0;
+    buffers.map(|b| {
+        let entry = wgpu::BindGroupEntry {
+            binding,
+            resource: wgpu::BindingResource::Buffer(b),
+        };
+        binding += 1;
+        entry
+    })
+}
+
+/// Makes sure `io` holds at least `items` items (grown geometrically).
+fn ensure_io<In: Pod, Out: Pod>(
     device: &wgpu::Device,
     io: &mut Option<Io>,
     items: usize,
     label: &str,
-) -> bool {
+) {
     if io.as_ref().is_some_and(|io| io.capacity >= items) {
-        return false;
+        return;
     }
     // Grow geometrically so that slowly growing calls do not reallocate every time.
     let capacity = items
@@ -742,13 +1187,7 @@ fn ensure_io<In: Pod, Out: Pod, U: Pod>(
             capacity * size_of::<Out>(),
             wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         ),
-        uniform: buffer(
-            "uniform",
-            size_of::<U>(),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        ),
     });
-    true
 }
 
 /// Maps the first `bytes` of `buffer`, waits, and copies them out.
