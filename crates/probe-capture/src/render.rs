@@ -80,10 +80,10 @@ pub enum Component {
     /// [`crate::trace_reference`] over those rays, so the probe tracer can be compared ray
     /// by ray and image by image.
     Glossy1,
-    /// Path-traced global illumination (Lambertian, up to [`RenderSettings::max_depth`]
-    /// path segments, Russian roulette after
-    /// [`RUSSIAN_ROULETTE_BOUNCES`](crate::RUSSIAN_ROULETTE_BOUNCES) bounces), averaged over
-    /// jittered primary rays.
+    /// Path-traced global illumination: emission and direct light at the primary hit plus
+    /// [`RenderSettings::bounces`] extra diffuse bounces after it (Lambertian, Russian
+    /// roulette after [`RUSSIAN_ROULETTE_BOUNCES`](crate::RUSSIAN_ROULETTE_BOUNCES)
+    /// bounces), averaged over jittered primary rays. With `bounces = 0` it is `Direct`.
     Full,
 }
 
@@ -103,17 +103,17 @@ pub struct RenderSettings {
     pub component: Component,
     /// Sun and sky; `None` uses [`Environment::for_scene`], as a bake does. Default `None`.
     pub environment: Option<Environment>,
-    /// Diffuse bounces of the radiance shaded at `Glossy1`'s secondary hits; match the
-    /// bake's [`BakeSettings::bounces`](crate::BakeSettings::bounces). Default 1.
+    /// Extra diffuse bounces after direct light (0 = direct light only), as the bake's
+    /// [`BakeSettings::bounces`](crate::BakeSettings::bounces): of the radiance shaded at
+    /// `Glossy1`'s secondary hits (match the bake's to compare with probes), and of `Full`'s
+    /// paths from the primary hit. `Direct` has none and ignores it. At most 1024.
+    /// Default 1.
     pub bounces: u32,
     /// Reflection rays of `Glossy1`. Default [`Reflection::Mirror`].
     pub reflection: Reflection,
     /// Shading estimates averaged at each `Glossy1` secondary hit (see
     /// [`crate::trace_reference`]). 1 to 65536. Default 1.
     pub shading_samples: u32,
-    /// Longest path of `Full`, in segments from the camera (1 = direct light only). 1 to
-    /// 1024. Default 16.
-    pub max_depth: u32,
 }
 
 impl RenderSettings {
@@ -129,7 +129,6 @@ impl RenderSettings {
             bounces: 1,
             reflection: Reflection::Mirror,
             shading_samples: 1,
-            max_depth: 16,
         }
     }
 
@@ -163,9 +162,6 @@ impl RenderSettings {
         }
         if self.bounces > 1024 {
             return invalid("bounces", self.bounces, "must be at most 1024");
-        }
-        if self.max_depth == 0 || self.max_depth > 1024 {
-            return invalid("max_depth", self.max_depth, "must be from 1 to 1024");
         }
         Ok(())
     }
@@ -212,7 +208,7 @@ pub fn render(
         Component::Direct | Component::Full => {
             let bounces = match settings.component {
                 Component::Direct => 0,
-                _ => settings.max_depth - 1,
+                _ => settings.bounces,
             };
             let shader = Shader::new(scene, environment, bounces)?;
             let done = AtomicUsize::new(0);

@@ -431,15 +431,43 @@ impl<'s> Shader<'s> {
         if attenuation <= 0.0 {
             return Vec3::ZERO;
         }
-        let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
-        if self
-            .scene
-            .occluded(&ray, shadow_limit(ray.origin, position))
-        {
+        if self.blocked(surface, position, 1.0) {
             Vec3::ZERO
         } else {
             intensity * (attenuation * cosine)
         }
+    }
+
+    /// Whether anything lies between the surface point and a light at `target` (a point
+    /// light, or a point on an emitter whose plane the shadow ray meets at cosine
+    /// `light_cosine`).
+    ///
+    /// The shadow ray starts at the surface's offset origin ([`Ray::from_surface`]), and its
+    /// direction and length are measured **from that origin**, so that it ends on the target
+    /// itself. (Measured from the un-offset hit point instead, the ray runs parallel to the
+    /// intended one, past the target by the offset: a surface parallel to a nearby emitter
+    /// then saw the emitter's own plane as a blocker, more so at large coordinates.) It stops
+    /// short of the target by [`shadow_limit`]'s margin, so the light's own surface never
+    /// occludes it. The geometric terms of the estimate stay those of the hit point itself.
+    #[inline]
+    fn blocked(&self, surface: &Surface, target: Vec3, light_cosine: f32) -> bool {
+        let origin = Ray::from_surface(
+            surface.position,
+            surface.geometric_normal,
+            target - surface.position,
+        )
+        .origin;
+        let to_target = target - origin;
+        let distance = to_target.length();
+        if !distance.is_finite() || distance <= 0.0 {
+            return false;
+        }
+        let ray = Ray {
+            origin,
+            direction: to_target / distance,
+        };
+        let limit = shadow_limit(origin, target, distance, light_cosine);
+        limit > 0.0 && self.scene.occluded(&ray, limit)
     }
 
     /// One emissive-triangle sample: `Le · cos θx · cos θy / (r² · pdf_area)`.
@@ -468,8 +496,7 @@ impl<'s> Shader<'s> {
         if pdf_area.is_nan() || pdf_area <= 0.0 {
             return Vec3::ZERO;
         }
-        let ray = Ray::from_surface(surface.position, surface.geometric_normal, towards_light);
-        if self.scene.occluded(&ray, shadow_limit(ray.origin, point)) {
+        if self.blocked(surface, point, light_cosine) {
             return Vec3::ZERO;
         }
         material.emissive * (cosine * light_cosine / (distance_squared * pdf_area))
@@ -491,12 +518,15 @@ pub(crate) fn normals_towards(hit: &Hit, towards: Vec3) -> (bool, Vec3, Vec3) {
     (facing, geometric_normal, shading_normal)
 }
 
-/// The `t_max` of a shadow ray from `origin` to a light at `target`: slightly short of the
-/// target (a relative 1e-4 plus a few ulps of the coordinates), so the light's own surface
-/// does not occlude it.
+/// The `t_max` of a shadow ray from `origin` to a light at `target`, `distance` apart, whose
+/// surface the ray meets at cosine `light_cosine` (1 for a point light): short of the target
+/// by a relative 1e-4 of the distance plus 16 ulps of the largest coordinate divided by the
+/// cosine. The second term covers the rounding of the target point off its triangle's plane
+/// (about an ulp of its coordinates), which a ray meeting the plane at a grazing angle turns
+/// into an error along the ray of that much divided by the cosine.
 #[inline]
-fn shadow_limit(origin: Vec3, target: Vec3) -> f32 {
-    let distance = (target - origin).length();
-    let ulps = target.abs().max_element().max(origin.abs().max_element()) * 8.0 * f32::EPSILON;
+fn shadow_limit(origin: Vec3, target: Vec3, distance: f32, light_cosine: f32) -> f32 {
+    let scale = target.abs().max_element().max(origin.abs().max_element());
+    let ulps = scale * 16.0 * f32::EPSILON / light_cosine.clamp(1e-3, 1.0);
     distance - 1e-4 * distance - ulps
 }

@@ -159,7 +159,7 @@ fn white_furnace() {
     let mut settings = RenderSettings::new(8, 8);
     settings.component = Component::Full;
     settings.samples_per_pixel = 32;
-    settings.max_depth = 64;
+    settings.bounces = 63;
     settings.seed = 11;
     let image = render(&scene, &camera, &settings, &no_progress).unwrap();
     let expected = le / (1.0 - albedo);

@@ -190,7 +190,7 @@ fn direct_and_full_renders_of_the_cornell_box() {
     settings.component = Component::Direct;
     let direct = render(&scene, &camera, &settings, &no_progress).unwrap();
     settings.component = Component::Full;
-    settings.max_depth = 8;
+    settings.bounces = 7;
     let full = render(&scene, &camera, &settings, &no_progress).unwrap();
     // Indirect light only adds: away from the directly seen light (clamped out here, its few
     // jittered hits are noisy), the full image is brighter.
@@ -218,11 +218,11 @@ fn direct_and_full_renders_of_the_cornell_box() {
     let png = image::open(dir.path().join("full.png")).unwrap();
     assert_eq!((png.width(), png.height()), (24, 24));
     // Bad settings are named.
-    settings.max_depth = 0;
+    settings.bounces = 1025;
     assert!(matches!(
         render(&scene, &camera, &settings, &no_progress),
         Err(RenderError::InvalidSetting {
-            parameter: "max_depth",
+            parameter: "bounces",
             ..
         })
     ));
