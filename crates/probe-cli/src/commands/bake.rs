@@ -24,7 +24,7 @@ pub struct Args {
     /// Jittered radiance samples per texel.
     #[arg(long, default_value_t = 4)]
     pub spp: u32,
-    /// Extra diffuse bounces after direct light.
+    /// Extra diffuse bounces after direct light (0 = direct light only).
     #[arg(long, default_value_t = 1)]
     pub bounces: u32,
     /// Seed of every random choice.
