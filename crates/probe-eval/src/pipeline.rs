@@ -14,11 +14,11 @@ use probe_capture::{
     trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
-use probe_scene::{Camera, Hit, Scene};
+use probe_scene::{Camera, Scene};
 use probe_trace_gpu::Tracer as _;
 use probe_trace_gpu::{
     AnyField, AnyIrradiance, AnyTracer, CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions,
-    Interpolation, IrradianceField, LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint,
+    Interpolation, IrradianceField, LightField, ProbeSelection, RayResult, ShadingPoint,
     TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
 use serde::{Deserialize, Serialize};

@@ -233,7 +233,11 @@ pub fn fill_to_budget(
         };
         // The largest gain, the lowest index among equals: the same pick in both builds.
         let better = |a: (usize, f64), b: (usize, f64)| {
-            if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) { b } else { a }
+            if b.1 > a.1 || (b.1 == a.1 && b.0 < a.0) {
+                b
+            } else {
+                a
+            }
         };
         let none = (usize::MAX, 0.0);
         let unused = |(i, _): &(usize, &Vec<crate::ProbeView>)| !used[*i];
@@ -245,7 +249,12 @@ pub fn fill_to_budget(
             .map(gain)
             .reduce(|| none, better);
         #[cfg(not(feature = "parallel"))]
-        let pick = views.iter().enumerate().filter(unused).map(gain).fold(none, better);
+        let pick = views
+            .iter()
+            .enumerate()
+            .filter(unused)
+            .map(gain)
+            .fold(none, better);
         if pick.0 == usize::MAX || pick.1 <= 0.0 {
             break;
         }

@@ -13,7 +13,7 @@ use probe_index::{
     SvoOptions, Tetrahedralization, VoronoiNeighbours, VoronoiSelector,
 };
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, LightField, ProbeSelection, RayStatus, TraceOptions, TraceRay,
+    CpuTracer, FieldOptions, LightField, ProbeSelection, RayStatus, TraceOptions, TraceRay, Tracer,
 };
 use proptest::prelude::*;
 
@@ -48,12 +48,12 @@ fn check(
         sky_distance: SKY,
     };
     let mut tracer = CpuTracer::new();
-    tracer
+    let uploaded = tracer
         .upload(&field, selection, &FieldOptions::default())
         .unwrap();
     let trace_rays: Vec<TraceRay> = rays.iter().map(|&(o, d)| TraceRay::new(o, d)).collect();
     let results = tracer
-        .trace(&trace_rays, &TraceOptions::default())
+        .trace(&uploaded, &trace_rays, &TraceOptions::default())
         .unwrap()
         .results;
     for (&(origin, direction), result) in rays.iter().zip(&results) {
