@@ -362,9 +362,9 @@ proptest! {
 fn a_point_just_outside_a_long_sliver_blends_to_itself() {
     let points = [
         Vec3::new(0.000_403_504_7, 0.000_522_706_37, 8.639_175e-5),
-        Vec3::new(1000.000_85, 1000.001, 1000.000_7),
+        Vec3::new(1_000.000_85, 1_000.001, 1_000.000_7),
         Vec3::new(0.000_284_985_55, 0.000_276_168_5, 0.000_658_008_3),
-        Vec3::new(1000.000_85, 1000.000_73, 1000.000_06),
+        Vec3::new(1_000.000_85, 1_000.000_73, 1_000.000_06),
     ];
     let t = Tetrahedralization::build(&points).unwrap();
     t.validate().unwrap();
