@@ -204,10 +204,11 @@ mod tests {
         Args {
             scene: "builtin:cornell".into(),
             camera: "default".into(),
-            spp: 2,
+            // Enough samples that one or two extra bounces visibly outweigh the noise.
+            spp: 16,
             component,
-            width: 8,
-            height: 8,
+            width: 16,
+            height: 16,
             reflection: reflection.map(str::to_owned),
             bounces,
             seed: 0,
