@@ -58,7 +58,7 @@
 //! let index = build_index(&scene, baked.positions(), 4, grid, 1)?;
 //!
 //! // Trace on the CPU twin (the same algorithm as the GPU tracer) and compare.
-//! let mut device = Device::Cpu(Box::new(probe_trace_gpu::CpuTracer::new()));
+//! let mut device = Device::cpu();
 //! let (metrics, image) =
 //!     trace_view(&mut device, &baked, &index, &view, &view.trace_rays(), Tracer::HiZ, Selection::Grid)?
 //!         .expect("a full grid has a cage selection");
