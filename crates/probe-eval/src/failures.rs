@@ -44,9 +44,13 @@ use probe_capture::{BakeSettings, ProbeBake, Rng, bake, no_progress, render_gbuf
 use probe_index::{IndexOptions, ProbeGrid, ProbeIndex, Tetrahedralization};
 use probe_octa::{OctaMap, encode};
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, CoverParams, LightingOracle, MedialParams, RegularGrid,
-    SdfParams, VoxelGrid, VoxelState, free_space_grid, inside_geometry, medial_candidates,
-    minimal_cover, sdf_candidates,
+    atlas::{Atlas, AtlasParams, BackfaceVote, free_space_grid},
+    candidates::{
+        MedialParams, RegularGrid, SdfParams, VoxelGrid, VoxelState, inside_geometry,
+        medial_candidates, sdf_candidates,
+    },
+    irradiance::LightingOracle,
+    minimal::{CoverParams, minimal_cover},
 };
 use probe_scene::{Camera, Hit, Material, Ray, Scene, Triangle};
 use probe_trace_gpu::{

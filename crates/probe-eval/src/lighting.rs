@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use probe_capture::{Environment, Rng, Shader, ShaderError};
-use probe_place::LightingOracle;
+use probe_place::irradiance::LightingOracle;
 use probe_place::pipeline::{PlaceOptions, Placement, place};
 use probe_scene::{Ray, Scene};
 

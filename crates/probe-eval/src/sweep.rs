@@ -14,8 +14,8 @@ use std::time::Instant;
 
 use glam::Vec3;
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, DescentParams, GibbsParams, RewardWeights, descend,
-    free_space_grid, gibbs,
+    atlas::{Atlas, AtlasParams, BackfaceVote, RewardWeights, free_space_grid},
+    optimize::{DescentParams, GibbsParams, descend, gibbs},
 };
 use probe_scene::Scene;
 use serde::{Deserialize, Serialize};

@@ -77,7 +77,7 @@ pub struct IndexReport {
     /// Octree statistics (bytes in `bytes`), if built.
     pub svo: Option<SvoStats>,
     /// Why there is no tetrahedralization (the probes span no volume), if there is none.
-    pub delaunay_skipped: Option<String>,
+    pub delaunay_skipped: Option<DelaunaySkipped>,
     /// Time of the first tetrahedralization.
     pub delaunay_time: Duration,
     /// Time of the edge casts, rebuild included.
@@ -88,6 +88,49 @@ pub struct IndexReport {
     pub neighbour_time: Duration,
     /// Time to build the octree.
     pub svo_time: Duration,
+}
+
+/// Why [`ProbeIndex::build`] made no tetrahedralization: the probes span no volume, so the
+/// octree serves alone and there are no Voronoi neighbours. Displays as the message of the
+/// matching [`DelaunayError`] (e.g. `all 9 distinct points are coplanar; …`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum DelaunaySkipped {
+    /// Fewer than four distinct positions ([`DelaunayError::TooFewPoints`]).
+    TooFewPoints {
+        /// Number of distinct positions.
+        distinct: usize,
+        /// Number of probes given, duplicates included.
+        given: usize,
+    },
+    /// All distinct positions lie on one line ([`DelaunayError::AllCollinear`]).
+    AllCollinear {
+        /// Number of distinct positions.
+        distinct: usize,
+    },
+    /// All distinct positions lie in one plane ([`DelaunayError::AllCoplanar`]).
+    AllCoplanar {
+        /// Number of distinct positions.
+        distinct: usize,
+    },
+}
+
+impl From<DelaunaySkipped> for DelaunayError {
+    fn from(skipped: DelaunaySkipped) -> DelaunayError {
+        match skipped {
+            DelaunaySkipped::TooFewPoints { distinct, given } => {
+                DelaunayError::TooFewPoints { distinct, given }
+            }
+            DelaunaySkipped::AllCollinear { distinct } => DelaunayError::AllCollinear { distinct },
+            DelaunaySkipped::AllCoplanar { distinct } => DelaunayError::AllCoplanar { distinct },
+        }
+    }
+}
+
+impl fmt::Display for DelaunaySkipped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        DelaunayError::from(*self).fmt(f)
+    }
 }
 
 impl ProbeIndex {
@@ -107,12 +150,16 @@ impl ProbeIndex {
         let t = Instant::now();
         let mut tetrahedralization = match Tetrahedralization::build(probes) {
             Ok(tetrahedralization) => Some(tetrahedralization),
-            Err(
-                error @ (DelaunayError::TooFewPoints { .. }
-                | DelaunayError::AllCollinear { .. }
-                | DelaunayError::AllCoplanar { .. }),
-            ) if !probes.is_empty() => {
-                report.delaunay_skipped = Some(error.to_string());
+            Err(DelaunayError::TooFewPoints { distinct, given }) if !probes.is_empty() => {
+                report.delaunay_skipped = Some(DelaunaySkipped::TooFewPoints { distinct, given });
+                None
+            }
+            Err(DelaunayError::AllCollinear { distinct }) if !probes.is_empty() => {
+                report.delaunay_skipped = Some(DelaunaySkipped::AllCollinear { distinct });
+                None
+            }
+            Err(DelaunayError::AllCoplanar { distinct }) if !probes.is_empty() => {
+                report.delaunay_skipped = Some(DelaunaySkipped::AllCoplanar { distinct });
                 None
             }
             Err(error) => return Err(error.into()),

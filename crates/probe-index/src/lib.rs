@@ -103,7 +103,7 @@ pub use error::{
 };
 pub use geometry::{RayHit, SceneGeometry, triangle_overlaps_box};
 pub use grid::{Cage, GridParams, ProbeGrid, next_cage_slot};
-pub use index::{IndexOptions, IndexReport, ProbeIndex};
+pub use index::{DelaunaySkipped, IndexOptions, IndexReport, ProbeIndex};
 pub use nearest::{KdNode, NearestProbe};
 pub use selector::{MAX_CANDIDATES, ProbeCandidates, ProbeQuery, ProbeSelector};
 pub use svo::{SVO_LEAF_BIT, SVO_PACKED_BIT, SparseVoxelOctree, SvoHeader, SvoOptions, SvoStats};

@@ -4,8 +4,8 @@ mod support;
 
 use glam::Vec3;
 use probe_index::{
-    EdgeCastError, EdgeCastOptions, IndexOptions, ProbeIndex, SvoOptions, Tetrahedralization,
-    insert_edge_probes,
+    DelaunaySkipped, EdgeCastError, EdgeCastOptions, IndexOptions, ProbeIndex, SvoOptions,
+    Tetrahedralization, insert_edge_probes,
 };
 use support::{Soup, box_triangles};
 
@@ -230,7 +230,9 @@ fn index_build_reports_every_structure() {
     assert!(index.tetrahedralization.is_none() && index.neighbours.is_none());
     assert!(index.voronoi_selector().is_none());
     assert!(index.svo.is_some());
-    let why = report.delaunay_skipped.as_deref().unwrap();
+    let skipped = report.delaunay_skipped.unwrap();
+    assert_eq!(skipped, DelaunaySkipped::AllCoplanar { distinct: 9 });
+    let why = skipped.to_string();
     assert!(
         why.starts_with("all 9 distinct points are coplanar"),
         "{why}"

@@ -10,7 +10,7 @@
 //! `SCENE` is `builtin:NAME`, a glTF path, or `sponza`, `godot_room`, `cornell_box` for the
 //! shared scenes (default `sponza`). Times are wall-clock on all cores (rayon).
 
-use probe_place::{
+use probe_place::candidates::{
     MedialParams, SdfParams, VoxelGrid, VoxelState, inside_geometry, medial_candidates,
     sdf_candidates,
 };

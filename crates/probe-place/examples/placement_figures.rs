@@ -21,9 +21,10 @@
 //! Gibbs step are 1/25 and 1/100 of the bounds' longest side.
 
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, MedialParams, SdfParams,
-    VoxelFreeSpace, VoxelGrid, free_space_grid, gibbs, medial_candidates, minimal_cover,
-    sdf_candidates,
+    atlas::{Atlas, AtlasParams, BackfaceVote, FreeSpace, VoxelFreeSpace, free_space_grid},
+    candidates::{MedialParams, SdfParams, VoxelGrid, medial_candidates, sdf_candidates},
+    minimal::{CoverParams, minimal_cover},
+    optimize::{GibbsParams, gibbs},
 };
 use probe_scene::Scene;
 use probe_scene::builtin::grid_cell_centers;

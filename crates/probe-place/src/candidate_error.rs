@@ -21,7 +21,7 @@ pub enum CandidateError {
     /// The voxel size is zero, negative or not a number.
     ///
     /// Fix: pass a positive, finite edge length in metres, typically 1/100 to 1/300 of the
-    /// scene's largest extent (see [`VoxelGrid::build`](crate::VoxelGrid::build)).
+    /// scene's largest extent (see [`VoxelGrid::build`](crate::candidates::VoxelGrid::build)).
     #[error("voxel_size must be a positive, finite length in metres, got {voxel_size}")]
     InvalidVoxelSize {
         /// The value given.
@@ -29,7 +29,7 @@ pub enum CandidateError {
     },
 
     /// The voxel grid over the scene would hold more voxels than
-    /// [`MAX_VOXELS`](crate::MAX_VOXELS).
+    /// [`MAX_VOXELS`](crate::candidates::MAX_VOXELS).
     ///
     /// Fix: use a larger voxel size (doubling it divides the count by eight).
     #[error(
@@ -43,12 +43,12 @@ pub enum CandidateError {
         dims: [u64; 3],
         /// Their product.
         count: u64,
-        /// [`MAX_VOXELS`](crate::MAX_VOXELS).
+        /// [`MAX_VOXELS`](crate::candidates::MAX_VOXELS).
         limit: u64,
     },
 
     /// Regular-grid dimensions with a zero, or beyond the caps
-    /// ([`MAX_GRID_DIM`](crate::MAX_GRID_DIM) per axis, [`MAX_GRID_PROBES`](crate::MAX_GRID_PROBES)
+    /// ([`MAX_GRID_DIM`](crate::candidates::MAX_GRID_DIM) per axis, [`MAX_GRID_PROBES`](crate::candidates::MAX_GRID_PROBES)
     /// in all).
     ///
     /// Fix: give every axis at least one cell and stay within the caps; a grid that large
@@ -60,9 +60,9 @@ pub enum CandidateError {
     InvalidGridDims {
         /// The dimensions given (x, y, z).
         dims: [u32; 3],
-        /// [`MAX_GRID_DIM`](crate::MAX_GRID_DIM).
+        /// [`MAX_GRID_DIM`](crate::candidates::MAX_GRID_DIM).
         max_dim: u32,
-        /// [`MAX_GRID_PROBES`](crate::MAX_GRID_PROBES).
+        /// [`MAX_GRID_PROBES`](crate::candidates::MAX_GRID_PROBES).
         max_probes: u64,
     },
 

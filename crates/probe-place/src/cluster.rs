@@ -6,8 +6,8 @@ use crate::par::*;
 use glam::Vec3;
 use probe_scene::Scene;
 
-/// How clusters became probes (for [`SdfCandidates`](crate::SdfCandidates) and
-/// [`MedialCandidates`](crate::MedialCandidates)).
+/// How clusters became probes (for [`SdfCandidates`](crate::candidates::SdfCandidates) and
+/// [`MedialCandidates`](crate::candidates::MedialCandidates)).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ClusterStats {
     /// Probes placed at their cluster's mean.

@@ -3,10 +3,10 @@
 
 use crate::candidate_error::{CandidateError, ValidRange, check_count_up_to, check_param};
 use crate::par::*;
-use crate::probes::{ProbeSet, json_f32};
+use crate::probes::ProbeSet;
+use crate::provenance::PlacementMethod;
 use glam::{UVec3, Vec3};
 use probe_scene::{Aabb, Ray, Scene};
-use serde_json::{Map, Value};
 
 /// The most cells a regular grid may have along one axis.
 pub const MAX_GRID_DIM: u32 = 1024;
@@ -113,24 +113,13 @@ impl RegularGrid {
             .collect()
     }
 
-    /// The grid as a [`ProbeSet`] with method `"grid"` and parameters `dims` and `bounds`.
+    /// The grid as a [`ProbeSet`] with [`PlacementMethod::Grid`] (`"grid"`, parameters
+    /// `dims` and `bounds`).
     pub fn probe_set(&self) -> ProbeSet {
-        ProbeSet::new(self.positions()).with_method("grid", self.parameters())
-    }
-
-    fn parameters(&self) -> Map<String, Value> {
-        let mut parameters = Map::new();
-        parameters.insert("dims".to_owned(), Value::from(self.dims.to_vec()));
-        parameters.insert(
-            "bounds".to_owned(),
-            Value::Array(
-                [self.bounds.min, self.bounds.max]
-                    .iter()
-                    .map(|corner| Value::Array(corner.to_array().map(json_f32).to_vec()))
-                    .collect(),
-            ),
-        );
-        parameters
+        ProbeSet::new(self.positions()).with_method(PlacementMethod::Grid {
+            dims: self.dims,
+            bounds: self.bounds,
+        })
     }
 }
 
@@ -208,14 +197,12 @@ impl ClassifiedGrid {
     /// The kept probes as a [`ProbeSet`] with method `"grid-relocated"` (or
     /// `"grid-classified"` without relocation).
     pub fn probe_set(&self) -> ProbeSet {
-        let mut parameters = self.grid.parameters();
-        parameters.insert("removed".to_owned(), Value::from(self.removed.len()));
-        let method = if self.relocated {
-            "grid-relocated"
-        } else {
-            "grid-classified"
-        };
-        ProbeSet::new(self.positions.clone()).with_method(method, parameters)
+        ProbeSet::new(self.positions.clone()).with_method(PlacementMethod::ClassifiedGrid {
+            dims: self.grid.dims,
+            bounds: self.grid.bounds,
+            removed: self.removed.len(),
+            relocated: self.relocated,
+        })
     }
 }
 
@@ -415,7 +402,7 @@ pub const INSIDE_BACKFACE_SHARE: f32 = 0.25;
 /// the backs of single-sided walls (behind a room's wall, under a floor) counts as inside,
 /// which is what a probe there is worth. Hits on double-sided triangles never count, so a
 /// point inside a closed *double-sided* solid is not detected here: the voxel classification
-/// ([`VoxelGrid::is_free`](crate::VoxelGrid::is_free)) catches those. Non-finite points count
+/// ([`VoxelGrid::is_free`](crate::candidates::VoxelGrid::is_free)) catches those. Non-finite points count
 /// as inside (they are no valid probe positions).
 pub fn inside_geometry(scene: &Scene, point: Vec3) -> bool {
     if !point.is_finite() {

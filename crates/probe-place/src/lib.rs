@@ -4,23 +4,80 @@
 //! probe positions from the scene's geometry ([`probe_scene::Scene`]) and returns them as a
 //! [`ProbeSet`], saved as `probes/1` JSON.
 //!
-//! # Candidates
+//! # Modules
 //!
-//! - [`RegularGrid`]: the baseline, probes at the cell centres of a division of the scene's
-//!   bounds (`grid:4x2x4` in [`ProbeSet::from_spec`]); [`classify_grid`] is the fair
-//!   baseline, DDGI-style classification (probes inside geometry switched off) and relocation
-//!   (probes moved at most 45 % of a cell towards free space).
-//! - [`VoxelGrid`]: the scene voxelized, each voxel free, surface or inside a solid, with an
-//!   exact Euclidean [`DistanceField`]; the free-space test of every generator below.
-//! - [`sdf_candidates`]: seed 000 §3.1.1, Alg. 1: the skeleton of the distance field,
-//!   clustered into probes.
-//! - [`medial_candidates`]: seed 000 §3.1.2: area-weighted [`sample_surfaces`], masbcpp's
-//!   shrinking balls, and clusters of the medial balls.
-//! - [`inside_geometry`]: the "is this probe inside geometry" test placement reports use.
+//! The steps of a placement, as seed 000 takes them, one module each:
+//!
+//! - [`candidates`]: where probes could go: regular grids with DDGI classification and
+//!   relocation, voxels and the SDF skeleton, the medial axis, the inside-geometry test.
+//! - [`atlas`]: how well probes see the scene: the visibility atlas, free space, the reward
+//!   and the [`PlacementReport`](atlas::PlacementReport).
+//! - [`optimize`]: moving probes to see more: descent and Gibbs sampling.
+//! - [`minimal`]: keeping only the probes a scene needs: pruning and the minimal cover.
+//! - [`irradiance`]: seed 002's lighting-driven methods and the [`LightingOracle`](irradiance::LightingOracle)
+//!   they take.
+//! - [`pipeline`]: all of it end to end ([`pipeline::place`], budgets and fills).
+//!
+//! At the root: [`ProbeSet`], the output and its `probes/1` file, and [`PlacementMethod`],
+//! how a set was made (the method with its parameters, typed).
+//!
+//! # Geometry you bring
+//!
+//! Everything here reads a [`probe_scene::Scene`]: its bounds, triangles, the materials'
+//! `double_sided` flag and alpha cut-outs, `closest_hit`, `occluded` and its name. An engine
+//! builds one from its own triangles with [`Scene::from_triangles`](probe_scene::Scene::from_triangles);
+//! this crate takes `probe-scene` without its glTF loader, so
+//! `cargo tree -p probe-place --no-default-features -e normal` lists no gltf or image.
 //!
 //! ```
-//! use probe_place::{ClassifyParams, ProbeSet, RegularGrid, classify_grid, inside_geometry};
-//! use probe_place::{SdfParams, sdf_candidates};
+//! use glam::{Vec2, Vec3};
+//! use probe_place::ProbeSet;
+//! use probe_place::candidates::inside_geometry;
+//! use probe_scene::{Material, Scene, Triangle};
+//!
+//! // An engine's room: a 4 m × 4 m floor facing up and a ceiling 3 m above it facing down.
+//! let triangle = |positions: [Vec3; 3], normal: Vec3| Triangle {
+//!     positions,
+//!     normals: [normal; 3],
+//!     uvs: [Vec2::ZERO; 3],
+//!     material: 0,
+//! };
+//! let [a, b, c, d] = [[0.0, 0.0], [0.0, 4.0], [4.0, 4.0], [4.0, 0.0]]
+//!     .map(|[x, z]| Vec3::new(x, 0.0, z));
+//! let up = Vec3::new(0.0, 3.0, 0.0);
+//! let triangles = vec![
+//!     triangle([a, b, c], Vec3::Y),
+//!     triangle([a, c, d], Vec3::Y),
+//!     triangle([a + up, c + up, b + up], -Vec3::Y),
+//!     triangle([a + up, d + up, c + up], -Vec3::Y),
+//! ];
+//! let materials = vec![Material::diffuse("plaster", Vec3::splat(0.7))];
+//! let scene = Scene::from_triangles("my-room", triangles, materials, Vec::new(), Vec::new())?;
+//!
+//! let grid = ProbeSet::from_spec("grid:2x1x2", &scene)?;
+//! assert_eq!(grid.len(), 4);
+//! assert!(grid.positions.iter().all(|&p| p.y == 1.5 && !inside_geometry(&scene, p)));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! # Candidates
+//!
+//! - [`RegularGrid`](candidates::RegularGrid): the baseline, probes at the cell centres of a division of the scene's
+//!   bounds (`grid:4x2x4` in [`ProbeSet::from_spec`]); [`classify_grid`](candidates::classify_grid) is the fair
+//!   baseline, DDGI-style classification (probes inside geometry switched off) and relocation
+//!   (probes moved at most 45 % of a cell towards free space).
+//! - [`VoxelGrid`](candidates::VoxelGrid): the scene voxelized, each voxel free, surface or inside a solid, with an
+//!   exact Euclidean [`DistanceField`](candidates::DistanceField); the free-space test of every generator below.
+//! - [`sdf_candidates`](candidates::sdf_candidates): seed 000 §3.1.1, Alg. 1: the skeleton of the distance field,
+//!   clustered into probes.
+//! - [`medial_candidates`](candidates::medial_candidates): seed 000 §3.1.2: area-weighted [`sample_surfaces`](candidates::sample_surfaces), masbcpp's
+//!   shrinking balls, and clusters of the medial balls.
+//! - [`inside_geometry`](candidates::inside_geometry): the "is this probe inside geometry" test placement reports use.
+//!
+//! ```
+//! use probe_place::ProbeSet;
+//! use probe_place::candidates::{ClassifyParams, RegularGrid, classify_grid, inside_geometry};
+//! use probe_place::candidates::{SdfParams, sdf_candidates};
 //! use probe_scene::Scene;
 //!
 //! // `boxes` hides a closed box at every cell centre of a 4×2×4 grid (seed 003, Fig. 8.2).
@@ -51,7 +108,7 @@
 //! - **Free space is what a flood fill reaches from outside the bounds** (seed 000's
 //!   "bounding box minus the geometry"), so open, double-sided and non-manifold meshes work;
 //!   sealed pockets are then decided by a front/back-face vote, so closed rooms (whose air no
-//!   flood reaches) stay free and closed solids are inside. See [`VoxelGrid`] for the rules
+//!   flood reaches) stay free and closed solids are inside. See [`VoxelGrid`](candidates::VoxelGrid) for the rules
 //!   and why not a winding number or ray parity.
 //! - **The skeleton is the ridge of the exact distance field** (voxels at least as far from
 //!   geometry as both neighbours along some axis), beyond a clearance threshold: a thin
@@ -63,22 +120,22 @@
 //!   a corridor's). Seed 000 clustered by "normals and curvature similarities" without
 //!   details; visibility is what coverage needs.
 //! - **Probes stay inside the scene's bounds and out of geometry**: a cluster mean outside
-//!   free space, or failing [`inside_geometry`], moves to the nearest member that passes.
+//!   free space, or failing [`inside_geometry`](candidates::inside_geometry), moves to the nearest member that passes.
 //! - **Deterministic**: the SDF skeleton uses no randomness; the medial axis draws its
 //!   surface samples from a seeded PCG; the same input gives the same [`ProbeSet`] bytes.
 //!
 //! # Visibility atlas, optimisation, minimal sets and irradiance-driven placement
 //!
-//! How well a probe set sees the scene ([`Atlas`], [`PlacementReport`]), moving probes to see
-//! more ([`descend`], [`gibbs`]), keeping only the probes a scene needs ([`prune_redundant`],
-//! [`minimal_cover`]), and seed 002's lighting-driven placement ([`spawn_and_merge`],
-//! [`gradient_ascent`]).
+//! How well a probe set sees the scene ([`Atlas`](atlas::Atlas), [`PlacementReport`](atlas::PlacementReport)), moving probes to see
+//! more ([`descend`](optimize::descend), [`gibbs`](optimize::gibbs)), keeping only the probes a scene needs ([`prune_redundant`](minimal::prune_redundant),
+//! [`minimal_cover`](minimal::minimal_cover)), and seed 002's lighting-driven placement ([`spawn_and_merge`](irradiance::spawn_and_merge),
+//! [`gradient_ascent`](irradiance::gradient_ascent)).
 //!
 //! ```
-//! use probe_place::{
-//!     Atlas, AtlasParams, BackfaceVote, CoverParams, GibbsParams, PlacementReport,
-//!     free_space_grid, gibbs, minimal_cover,
-//! };
+//! use probe_place::atlas::{Atlas, AtlasParams, BackfaceVote, PlacementReport, free_space_grid};
+//! use probe_place::minimal::{CoverParams, minimal_cover};
+//! use probe_place::optimize::{GibbsParams, gibbs};
+//! use probe_place::PlacementMethod;
 //! use probe_scene::Scene;
 //! use glam::Vec3;
 //!
@@ -99,48 +156,51 @@
 //! let moved = gibbs(&atlas, &free, &start, &GibbsParams { max_iterations: 5, ..GibbsParams::with_step(0.04) })?;
 //! assert!(moved.coverage > atlas.coverage(&start));
 //!
-//! let report = PlacementReport::measure(
-//!     "minimal-cover", serde_json::json!({}), &atlas, &free, &set.positions(), 0.0);
+//! let method = PlacementMethod::Recorded {
+//!     name: "minimal-cover".into(),
+//!     parameters: serde_json::Map::new(),
+//! };
+//! let report = PlacementReport::measure(method, &atlas, &free, &set.positions(), 0.0);
 //! assert_eq!(report.probes_inside_geometry, 0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! **The atlas** ([`Atlas`], seed 000 §3.2.1). Instead of unwrapping the scene into a texture,
+//! **The atlas** ([`Atlas`](atlas::Atlas), seed 000 §3.2.1). Instead of unwrapping the scene into a texture,
 //! the surfaces are cut into equal-area point samples ("texels"): a triangle of area `A` gets
 //! `⌊A / texel_size² + u⌋` of them (`u` seeded per triangle), so every texel stands for the same
 //! area and coverage is a share of texels. A probe sees a texel when the segment between them
 //! is unoccluded (one BVH shadow ray, [`probe_scene::Scene::occluded`]), the view cosine
-//! exceeds a threshold (default 0.2, [`DEFAULT_MIN_VIEW_COSINE`]: views within 78.5° of the
+//! exceeds a threshold (default 0.2, [`DEFAULT_MIN_VIEW_COSINE`](atlas::DEFAULT_MIN_VIEW_COSINE): views within 78.5° of the
 //! normal; more grazing views give stretched, leaky probe texels) and the distance is within an
 //! optional limit.
 //!
-//! **Which surfaces count** (the coverage rule, also in every [`PlacementReport`]). Front faces
+//! **Which surfaces count** (the coverage rule, also in every [`PlacementReport`](atlas::PlacementReport)). Front faces
 //! of single-sided triangles and both faces of double-sided ones; alpha cut-outs are not
-//! surface. Of those, [`Atlas::build`] keeps only the texels that at least one *reference
-//! point* in free space sees (by default a dense [`free_space_grid`]). This drops faces inside
+//! surface. Of those, [`Atlas::build`](atlas::Atlas::build) keeps only the texels that at least one *reference
+//! point* in free space sees (by default a dense [`free_space_grid`](atlas::free_space_grid)). This drops faces inside
 //! closed solids, the outer sides of a room's walls, the undersides of floors and gaps narrower
 //! than the reference spacing, none of which a probe in free space can see well. "Full
 //! coverage" means every kept texel is seen; a dense enough reference grid always reaches it, so
 //! it is a target placements can meet, and its spacing is the resolution at which "visible from
 //! free space" is judged.
 //!
-//! **Free space** ([`FreeSpace`]). [`BackfaceVote`] is [`inside_geometry`]'s ray vote (more
+//! **Free space** ([`FreeSpace`](atlas::FreeSpace)). [`BackfaceVote`](atlas::BackfaceVote) is [`inside_geometry`](candidates::inside_geometry)'s ray vote (more
 //! than a quarter of 64 rays hit the back of a single-sided triangle) plus the bounds and a
 //! small clearance from surfaces; open and double-sided meshes (a two-sided plane) have no
-//! inside. [`VoxelFreeSpace`] uses the SDF generator's [`VoxelGrid`] instead. Either decides
+//! inside. [`VoxelFreeSpace`](atlas::VoxelFreeSpace) uses the SDF generator's [`VoxelGrid`](candidates::VoxelGrid) instead. Either decides
 //! where optimisers may move probes, which reference points an atlas uses and what a report
 //! counts as "inside geometry".
 //!
-//! **The reward** (eq. 3.1–3.2, [`RewardWeights`], [`AtlasState`]). A probe's score for a
+//! **The reward** (eq. 3.1–3.2, [`RewardWeights`](atlas::RewardWeights), [`AtlasState`](atlas::AtlasState)). A probe's score for a
 //! texel it sees is `w1 · cos + w2 · min(d / scale, 1)`. By default a texel's fitness is its
-//! *best* probe's score ([`TexelAggregation::BestProbe`]): eq. 3.2 as written sums over probes,
+//! *best* probe's score ([`TexelAggregation::BestProbe`](atlas::TexelAggregation::BestProbe)): eq. 3.2 as written sums over probes,
 //! which rewards seeing the same large wall twice as much as covering a hidden corner; the sum
-//! is available as [`TexelAggregation::SumOverProbes`]. `R` is reported as the mean texel
-//! fitness. [`AtlasState`] keeps, per texel, which probes see it and its best and second-best
+//! is available as [`TexelAggregation::SumOverProbes`](atlas::TexelAggregation::SumOverProbes). `R` is reported as the mean texel
+//! fitness. [`AtlasState`](atlas::AtlasState) keeps, per texel, which probes see it and its best and second-best
 //! score, so "what if probe `k` moved there" costs one visibility query plus a merge of two
 //! sorted view lists.
 //!
-//! **Optimisation** ([`descend`], [`gibbs`]). Descent is seed 000 §3.2.2 as described: every
+//! **Optimisation** ([`descend`](optimize::descend), [`gibbs`](optimize::gibbs)). Descent is seed 000 §3.2.2 as described: every
 //! probe moves at once to its best support probe `p + h·(±1, ±1, ±1)`. With a fixed step it
 //! cannot stand still, so it ends up jumping between two positions (the oscillation seed 000
 //! reports; `tests/optimize.rs` shows it, and shows twin probes oscillating in lockstep).
@@ -152,17 +212,17 @@
 //! out of free space, and return the best set met plus a per-iteration history (reward,
 //! coverage, moves, positions) for charts.
 //!
-//! **Minimal sets** ([`prune_redundant`], [`minimal_cover`]). Pruning drops, weakest probe
+//! **Minimal sets** ([`prune_redundant`](minimal::prune_redundant), [`minimal_cover`](minimal::minimal_cover)). Pruning drops, weakest probe
 //! first, every probe whose removal keeps coverage; the result is irredundant. The minimal
 //! cover is lazy greedy set cover over a candidate pool (within `ln(texels) + 1` of optimal),
 //! pruned, optionally refined by Gibbs when a budget stops it short of the target. With the
 //! atlas's own reference grid as the pool, full coverage is always reached.
 //!
-//! **Seed 002** ([`spawn_and_merge`], [`gradient_ascent`], [`k_means`]), driven by a
-//! [`LightingOracle`] (irradiance at a point and towards a direction) so that this crate does
-//! not depend on a renderer; [`PointLightOracle`] is an analytic one. Probes are compared by the
+//! **Seed 002** ([`spawn_and_merge`](irradiance::spawn_and_merge), [`gradient_ascent`](irradiance::gradient_ascent), [`k_means`](irradiance::k_means)), driven by a
+//! [`LightingOracle`](irradiance::LightingOracle) (irradiance at a point and towards a direction) so that this crate does
+//! not depend on a renderer; [`PointLightOracle`](irradiance::PointLightOracle) is an analytic one. Probes are compared by the
 //! luminance of the irradiance in the 26 directions of seed 002 §3.1.3, relative to the
-//! brighter probe's brightest direction ([`contrast`]). Spawn and merge compares each probe
+//! brighter probe's brightest direction ([`contrast`](irradiance::contrast)). Spawn and merge compares each probe
 //! with its 6 nearest neighbours (all close pairs grow quadratically, as seed 002 found);
 //! gradient ascent follows the "sum of directions times luminance" gradient, reverts steps that
 //! land in the dark or outside free space (seed 002's second-order rule) and halves the step
@@ -188,48 +248,22 @@
 
 #![forbid(unsafe_code)]
 
-mod atlas;
+pub mod atlas;
 mod candidate_error;
+pub mod candidates;
 mod cluster;
 mod grid;
-mod irradiance;
+pub mod irradiance;
 mod medial;
-mod minimal;
-mod optimize;
+pub mod minimal;
+pub mod optimize;
 mod par;
 pub mod pipeline;
 mod probes;
+mod provenance;
 mod report;
 mod sdf;
 mod voxel;
 
-pub use atlas::{
-    Atlas, AtlasError, AtlasParams, AtlasState, BackfaceVote, DEFAULT_MIN_VIEW_COSINE, Evaluation,
-    FreeSpace, MAX_TEXELS, ProbeView, RewardWeights, SurfaceSample, TexelAggregation,
-    VoxelFreeSpace, free_space_grid,
-};
-pub use candidate_error::{CandidateError, ValidRange};
-pub use cluster::ClusterStats;
-pub use grid::{
-    ClassifiedGrid, ClassifyParams, INSIDE_BACKFACE_SHARE, INSIDE_TEST_RAYS, MAX_GRID_DIM,
-    MAX_GRID_PROBES, MAX_RELOCATION_FRACTION, RegularGrid, classify_grid, inside_geometry,
-};
-pub use irradiance::{
-    GradientAscentParams, IrradianceError, IrradiancePlacement, LightingOracle, PointLightOracle,
-    SpawnMergeParams, SpawnMergeStep, contrast, gradient_ascent, irradiance_gradient, k_means,
-    sample_directions, spawn_and_merge,
-};
-pub use medial::{
-    MAX_SURFACE_SAMPLES, MedialBall, MedialCandidates, MedialParams, SurfacePoint,
-    medial_candidates, sample_surfaces,
-};
-pub use minimal::{
-    CoverParams, MinimalSet, MinimalSetError, Pruned, minimal_cover, prune_redundant,
-};
-pub use optimize::{
-    DescentParams, GibbsParams, IterationRecord, OptimizeError, Optimized, descend, gibbs,
-};
 pub use probes::{PROBE_SET_FORMAT, ProbeSet, ProbeSetError};
-pub use report::{COVERAGE_RULE, PlacementReport};
-pub use sdf::{SdfCandidates, SdfParams, sdf_candidates};
-pub use voxel::{DistanceField, MAX_VOXELS, MAX_VOXELS_PER_AXIS, VoxelGrid, VoxelState};
+pub use provenance::PlacementMethod;

@@ -8,6 +8,7 @@ use crate::candidate_error::{
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
 use crate::par::*;
 use crate::probes::{ProbeSet, json_f32};
+use crate::provenance::PlacementMethod;
 use crate::sdf::sees;
 use crate::voxel::{VoxelGrid, VoxelState};
 use glam::{Vec2, Vec3};
@@ -181,7 +182,7 @@ impl MedialParams {
         check_count("min_cluster_balls", self.min_cluster_balls)
     }
 
-    fn to_json(&self) -> Map<String, Value> {
+    pub(crate) fn to_json(&self) -> Map<String, Value> {
         let mut map = Map::new();
         let mut put = |key: &str, value: Value| {
             map.insert(key.to_owned(), value);
@@ -245,7 +246,7 @@ pub struct MedialCandidates {
 ///    size of the space, and every hidden region gets its own; clusters with fewer than
 ///    `min_cluster_balls` are dropped; each cluster gives a probe at its mean centre, moved
 ///    to the nearest member centre when the mean lies outside free space or
-///    [`inside_geometry`](crate::inside_geometry) (dropped if none of 16 fits).
+///    [`inside_geometry`](crate::candidates::inside_geometry) (dropped if none of 16 fits).
 ///
 /// Deterministic for a given seed.
 pub fn medial_candidates(
@@ -334,10 +335,11 @@ pub fn medial_candidates(
             positions.push(p);
         }
     }
-    let mut parameters = params.to_json();
-    parameters.insert("medial_balls".to_owned(), Value::from(balls.len()));
     Ok(MedialCandidates {
-        probes: ProbeSet::new(positions).with_method("medial", parameters),
+        probes: ProbeSet::new(positions).with_method(PlacementMethod::Medial {
+            params: params.clone(),
+            medial_balls: balls.len(),
+        }),
         balls,
         voxels,
         balls_shrunk,

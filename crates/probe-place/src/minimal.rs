@@ -28,7 +28,7 @@ pub enum MinimalSetError {
     },
     /// No probe or candidate was given, or none of them is in free space.
     ///
-    /// Fix: pass candidates in free space, e.g. [`free_space_grid`](crate::free_space_grid).
+    /// Fix: pass candidates in free space, e.g. [`free_space_grid`](crate::atlas::free_space_grid).
     #[error("no usable candidates: {given} given, none of them in free space")]
     NoCandidates {
         /// How many were given.
@@ -223,7 +223,7 @@ fn prune_views(
 ///    not drop).
 ///
 /// With the atlas's own reference points as candidates (e.g. the same
-/// [`free_space_grid`](crate::free_space_grid)), full coverage is always reachable, since
+/// [`free_space_grid`](crate::atlas::free_space_grid)), full coverage is always reachable, since
 /// every texel kept in the atlas is seen by one of them.
 pub fn minimal_cover(
     atlas: &Atlas<'_>,

@@ -26,16 +26,23 @@
 
 use std::time::Instant;
 
+pub use crate::provenance::PlaceProvenance;
+use crate::provenance::PlacementMethod;
 use crate::{
-    Atlas, AtlasParams, BackfaceVote, ClassifyParams, CoverParams, DescentParams, GibbsParams,
-    GradientAscentParams, IterationRecord, LightingOracle, MedialParams, PlacementReport, ProbeSet,
-    RegularGrid, SdfParams, SpawnMergeParams, VoxelFreeSpace, VoxelGrid, classify_grid, descend,
-    free_space_grid, gibbs, gradient_ascent, medial_candidates, minimal_cover, sdf_candidates,
-    spawn_and_merge,
+    ProbeSet,
+    atlas::{Atlas, AtlasParams, BackfaceVote, PlacementReport, VoxelFreeSpace, free_space_grid},
+    candidates::{
+        ClassifyParams, MedialParams, RegularGrid, SdfParams, VoxelGrid, classify_grid,
+        medial_candidates, sdf_candidates,
+    },
+    irradiance::{
+        GradientAscentParams, LightingOracle, SpawnMergeParams, gradient_ascent, spawn_and_merge,
+    },
+    minimal::{CoverParams, minimal_cover},
+    optimize::{DescentParams, GibbsParams, IterationRecord, descend, gibbs},
 };
 use glam::Vec3;
 use probe_scene::Scene;
-use serde_json::json;
 
 /// Why a placement failed: the stage and its error.
 #[derive(Debug, thiserror::Error)]
@@ -43,19 +50,19 @@ use serde_json::json;
 pub enum PlaceError {
     /// Candidate generation (grid, SDF, medial axis, voxels) failed.
     #[error("candidates: {0}")]
-    Candidates(#[from] crate::CandidateError),
+    Candidates(#[from] crate::candidates::CandidateError),
     /// The visibility atlas could not be built.
     #[error("visibility atlas: {0}")]
-    Atlas(#[from] crate::AtlasError),
+    Atlas(#[from] crate::atlas::AtlasError),
     /// The optimiser refused its input.
     #[error("optimisation: {0}")]
-    Optimize(#[from] crate::OptimizeError),
+    Optimize(#[from] crate::optimize::OptimizeError),
     /// The minimal cover failed.
     #[error("minimal set: {0}")]
-    Minimal(#[from] crate::MinimalSetError),
+    Minimal(#[from] crate::minimal::MinimalSetError),
     /// An irradiance-driven method failed.
     #[error("irradiance placement: {0}")]
-    Irradiance(#[from] crate::IrradianceError),
+    Irradiance(#[from] crate::irradiance::IrradianceError),
     /// An irradiance-driven method was asked for without a lighting oracle. Fix: pass a
     /// [`LightingOracle`] to [`place`] (probe-eval's `CaptureOracle` shades the scene with
     /// probe-capture), or choose a geometric method.
@@ -210,7 +217,7 @@ pub fn fill_to_budget(
     if chosen.len() >= budget {
         return chosen;
     }
-    let weights = crate::RewardWeights::default();
+    let weights = crate::atlas::RewardWeights::default();
     let scale = atlas.distance_scale();
     let mut best = vec![0.0f32; atlas.samples().len()];
     for views in atlas.views_of_probes(&chosen) {
@@ -224,7 +231,7 @@ pub fn fill_to_budget(
     let mut used: Vec<bool> = candidates.iter().map(|c| chosen.contains(c)).collect();
     let mut chosen = chosen;
     while chosen.len() < budget {
-        let gain = |(i, views): (usize, &Vec<crate::ProbeView>)| -> (usize, f64) {
+        let gain = |(i, views): (usize, &Vec<crate::atlas::ProbeView>)| -> (usize, f64) {
             let gain: f64 = views
                 .iter()
                 .map(|v| f64::from((weights.score(v, scale) - best[v.sample as usize]).max(0.0)))
@@ -240,7 +247,7 @@ pub fn fill_to_budget(
             }
         };
         let none = (usize::MAX, 0.0);
-        let unused = |(i, _): &(usize, &Vec<crate::ProbeView>)| !used[*i];
+        let unused = |(i, _): &(usize, &Vec<crate::atlas::ProbeView>)| !used[*i];
         #[cfg(feature = "parallel")]
         let pick = views
             .par_iter()
@@ -307,7 +314,7 @@ pub fn place(
         });
     }
     if scene.triangles().is_empty() {
-        return Err(crate::CandidateError::EmptyScene {
+        return Err(crate::candidates::CandidateError::EmptyScene {
             scene: scene.name().to_owned(),
         }
         .into());
@@ -336,21 +343,19 @@ pub fn place(
 
     let start = Instant::now();
     let mut full_grid = None;
-    let mut parameters = serde_json::Map::new();
+    let mut run = PlaceProvenance::new(options.method, options.seed);
     let mut positions: Vec<Vec3> = match options.method {
         Method::Grid(dims) => {
             full_grid = Some(dims);
-            parameters.insert("dims".into(), json!(dims));
             RegularGrid::over_scene(scene, dims)?.positions()
         }
         Method::GridRelocated(dims) => {
-            parameters.insert("dims".into(), json!(dims));
             let classified = classify_grid(
                 scene,
                 &RegularGrid::over_scene(scene, dims)?,
                 &ClassifyParams::default(),
             )?;
-            parameters.insert("removed".into(), json!(classified.removed.len()));
+            run.removed = Some(classified.removed.len());
             if classified.removed.is_empty() {
                 full_grid = Some(dims);
             }
@@ -371,7 +376,7 @@ pub fn place(
                 method: options.method.name(),
             })?;
             let spacing = longest / 12.0;
-            parameters.insert("spacing".into(), json!(spacing));
+            run.spacing = Some(spacing);
             let placed = if options.method == Method::SpawnMerge {
                 spawn_and_merge(
                     scene,
@@ -384,8 +389,8 @@ pub fn place(
                 params.seed = options.seed;
                 gradient_ascent(scene, oracle, &free, &params)?
             };
-            parameters.insert("lit".into(), json!(placed.lit));
-            parameters.insert("unlit".into(), json!(placed.unlit));
+            run.lit = Some(placed.lit);
+            run.unlit = Some(placed.unlit);
             placed.positions()
         }
         Method::Minimal => {
@@ -398,7 +403,7 @@ pub fn place(
             let mut medial = MedialParams::for_scene(scene);
             medial.seed = options.seed;
             candidates.extend(medial_candidates(scene, &medial)?.probes.positions);
-            parameters.insert("candidates".into(), json!(candidates.len()));
+            run.candidates = Some(candidates.len());
             let set = minimal_cover(
                 &atlas,
                 &free,
@@ -436,8 +441,7 @@ pub fn place(
     }
     let mut history = None;
     if let Some(optimizer) = options.optimize {
-        parameters.insert("step".into(), json!(step));
-        parameters.insert("iterations".into(), json!(options.iterations));
+        run.optimizer = Some((optimizer, step, options.iterations));
         let result = match optimizer {
             Optimizer::Gibbs => gibbs(
                 &atlas,
@@ -464,36 +468,20 @@ pub fn place(
         full_grid = None;
     }
     let seconds = start.elapsed().as_secs_f64();
-    let mut name = options.method.name();
-    match options.optimize {
-        Some(Optimizer::Gibbs) => name.push_str("+gibbs"),
-        Some(Optimizer::Descent) => name.push_str("+descent"),
-        None => {}
-    }
-    if let Some(budget) = options.budget {
-        name.push_str(&format!("@{budget}"));
-        parameters.insert("budget".into(), json!(budget));
-    }
+    run.budget = options.budget;
     if options.coverage < 1.0 {
-        parameters.insert("coverage_target".into(), json!(options.coverage));
+        run.coverage_target = Some(options.coverage);
     }
-    parameters.insert("seed".into(), json!(options.seed));
+    let method = PlacementMethod::Placed(run);
     if positions.is_empty() {
         return Err(PlaceError::NoProbes {
-            method: name,
+            method: method.name(),
             scene: scene.name().to_owned(),
         });
     }
-    let report = PlacementReport::measure(
-        &name,
-        serde_json::Value::Object(parameters.clone()),
-        &atlas,
-        &free,
-        &positions,
-        seconds,
-    );
+    let report = PlacementReport::measure(method.clone(), &atlas, &free, &positions, seconds);
     Ok(Placement {
-        probes: ProbeSet::new(positions).with_method(name, parameters),
+        probes: ProbeSet::new(positions).with_method(method),
         report,
         history,
         full_grid,

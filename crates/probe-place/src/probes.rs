@@ -2,6 +2,7 @@
 
 use crate::candidate_error::CandidateError;
 use crate::grid::RegularGrid;
+use crate::provenance::PlacementMethod;
 use glam::Vec3;
 use probe_scene::Scene;
 use serde_json::{Map, Value};
@@ -12,7 +13,8 @@ use std::path::{Path, PathBuf};
 /// The `format` tag of probe-set files written by this version.
 pub const PROBE_SET_FORMAT: &str = "probes/1";
 
-/// A placement: world-space probe positions plus the method and parameters that made them.
+/// A placement: world-space probe positions plus the method, with its parameters, that made
+/// them ([`PlacementMethod`]).
 ///
 /// # File format (`probes/1`)
 ///
@@ -36,19 +38,20 @@ pub const PROBE_SET_FORMAT: &str = "probes/1";
 ///   writer prints each `f32` in its shortest round-trip decimal form (`-3.15`, `1e-7`), so
 ///   positions survive a save and load bit for bit.
 /// - `method` (optional, default `"manual"`): the placement method, e.g. `"grid"`,
-///   `"grid-relocated"`, `"sdf"`, `"medial"`.
-/// - `parameters` (optional, default `{}`): the method's parameters, any JSON; keys are written
-///   sorted, so the same set gives the same bytes.
+///   `"grid-relocated"`, `"sdf"`, `"medial"` ([`PlacementMethod::name`]).
+/// - `parameters` (optional, default `{}`): the method's parameters, any JSON object; keys are
+///   written sorted, so the same set gives the same bytes. Both are read into a
+///   [`PlacementMethod`] ([`PlacementMethod::from_recorded`]): typed for the methods this
+///   version writes, kept as recorded otherwise.
 /// - `count` (optional): the number of positions; checked against `positions` when present.
 /// - Other keys are ignored when reading, so later versions may add fields.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeSet {
     /// World-space probe positions, metres.
     pub positions: Vec<Vec3>,
-    /// The method that placed them (`"manual"` for a set built by hand).
-    pub method: String,
-    /// The method's parameters (JSON object; keys sorted).
-    pub parameters: Map<String, Value>,
+    /// The method that placed them, with its parameters ([`PlacementMethod::Manual`] for a
+    /// set built by hand).
+    pub method: PlacementMethod,
 }
 
 /// What went wrong reading, writing or parsing a probe set.
@@ -146,23 +149,17 @@ struct ProbeFile {
 }
 
 impl ProbeSet {
-    /// A set of hand-placed positions (method `"manual"`, no parameters).
+    /// A set of hand-placed positions ([`PlacementMethod::Manual`]).
     pub fn new(positions: Vec<Vec3>) -> ProbeSet {
         ProbeSet {
             positions,
-            method: "manual".to_owned(),
-            parameters: Map::new(),
+            method: PlacementMethod::Manual,
         }
     }
 
-    /// The same positions, labelled with a method and its parameters.
-    pub fn with_method(
-        mut self,
-        method: impl Into<String>,
-        parameters: Map<String, Value>,
-    ) -> Self {
-        self.method = method.into();
-        self.parameters = parameters;
+    /// The same positions, labelled with the method (and its parameters) that placed them.
+    pub fn with_method(mut self, method: PlacementMethod) -> Self {
+        self.method = method;
         self
     }
 
@@ -231,12 +228,12 @@ impl ProbeSet {
         let _ = writeln!(
             text,
             "  \"method\": {},",
-            json(&Value::from(self.method.as_str()))
+            json(&Value::from(self.method.name()))
         );
         let _ = writeln!(
             text,
             "  \"parameters\": {},",
-            json(&Value::Object(self.parameters.clone()))
+            json(&Value::Object(self.method.parameters()))
         );
         let _ = writeln!(text, "  \"count\": {},", self.positions.len());
         text.push_str("  \"positions\": [");
@@ -285,10 +282,10 @@ pub(crate) fn json_f32(value: f32) -> Value {
 
 /// The `probes/1` layout for serde (borrowed).
 #[derive(serde::Serialize)]
-struct ProbeFileOut<'a> {
+struct ProbeFileOut {
     format: &'static str,
-    method: &'a str,
-    parameters: &'a Map<String, Value>,
+    method: String,
+    parameters: Map<String, Value>,
     count: usize,
     positions: Vec<[f32; 3]>,
 }
@@ -304,8 +301,8 @@ impl serde::Serialize for ProbeSet {
         }
         ProbeFileOut {
             format: PROBE_SET_FORMAT,
-            method: &self.method,
-            parameters: &self.parameters,
+            method: self.method.name(),
+            parameters: self.method.parameters(),
             count: self.positions.len(),
             positions: self
                 .positions
@@ -386,8 +383,10 @@ fn validate(file: ProbeFile, origin: &str) -> Result<ProbeSet, ProbeSetError> {
     }
     Ok(ProbeSet {
         positions,
-        method: file.method.unwrap_or_else(|| "manual".to_owned()),
-        parameters: file.parameters.unwrap_or_default(),
+        method: PlacementMethod::from_recorded(
+            file.method.as_deref().unwrap_or("manual"),
+            file.parameters.unwrap_or_default(),
+        ),
     })
 }
 
@@ -435,11 +434,14 @@ mod tests {
         let mut parameters = Map::new();
         parameters.insert("z".to_owned(), Value::from(1));
         parameters.insert("a".to_owned(), Value::from("b\"q"));
-        let set = ProbeSet::new(positions).with_method("sdf", parameters);
+        let set = ProbeSet::new(positions).with_method(PlacementMethod::Recorded {
+            name: "sdf".to_owned(),
+            parameters,
+        });
         let text = set.to_json().unwrap();
         let back = ProbeSet::from_json(&text).unwrap();
-        assert_eq!(back.method, "sdf");
-        assert_eq!(back.parameters, set.parameters);
+        // Not the parameters `sdf_candidates` writes, so kept as recorded.
+        assert_eq!(back.method, set.method);
         for (a, b) in set.positions.iter().zip(&back.positions) {
             // Bit-exact, except that −0 is written as +0.
             assert_eq!(
@@ -486,7 +488,7 @@ mod tests {
         )
         .unwrap();
         assert_eq!(ok.positions, vec![Vec3::new(1.0, 2.0, 3.0)]);
-        assert_eq!(ok.method, "manual");
+        assert_eq!(ok.method, PlacementMethod::Manual);
         let nan = ProbeSet::new(vec![Vec3::ONE, Vec3::NAN]);
         assert!(matches!(
             nan.to_json(),

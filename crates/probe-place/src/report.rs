@@ -3,6 +3,7 @@
 
 use crate::atlas::{Atlas, FreeSpace};
 use crate::par::*;
+use crate::provenance::PlacementMethod;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
@@ -16,10 +17,10 @@ only if some reference point in free space sees them that way";
 /// serde; [`PlacementReport::to_json`] gives the pretty form.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlacementReport {
-    /// The placement method (e.g. `"grid"`, `"sdf+gibbs"`, `"spawn-merge"`).
-    pub method: String,
-    /// The method's parameters, as given by the caller (a JSON object).
-    pub parameters: serde_json::Value,
+    /// The placement method with its parameters; in JSON the two fields `"method"` (a name
+    /// such as `"grid"`, `"sdf+gibbs"`, `"spawn-merge"`) and `"parameters"` (an object).
+    #[serde(flatten)]
+    pub method: PlacementMethod,
     /// The number of probes.
     pub probe_count: usize,
     /// The share of texels seen (see [`COVERAGE_RULE`]).
@@ -50,8 +51,7 @@ impl PlacementReport {
     /// Measures `probes` over `atlas` (views in parallel) and classifies them with `free`.
     /// `seconds` is the time the placement took, measured by the caller.
     pub fn measure(
-        method: &str,
-        parameters: serde_json::Value,
+        method: PlacementMethod,
         atlas: &Atlas<'_>,
         free: &dyn FreeSpace,
         probes: &[Vec3],
@@ -66,8 +66,7 @@ impl PlacementReport {
             .count();
         let outside = probes.iter().filter(|p| !bounds.contains(**p)).count();
         PlacementReport {
-            method: method.to_owned(),
-            parameters,
+            method,
             probe_count: probes.len(),
             coverage: seen.len() as f64 / best.len() as f64,
             covered_texels: seen.len(),

@@ -3,6 +3,7 @@
 use crate::candidate_error::{CandidateError, ValidRange, check_count, check_param};
 use crate::cluster::{ClusterStats, cover_clusters, settle_in_free_space};
 use crate::probes::{ProbeSet, json_f32};
+use crate::provenance::PlacementMethod;
 use crate::voxel::{DistanceField, VoxelGrid, VoxelState};
 use glam::Vec3;
 use probe_scene::{Aabb, Ray, Scene};
@@ -70,7 +71,7 @@ impl SdfParams {
         )
     }
 
-    fn to_json(&self) -> Map<String, Value> {
+    pub(crate) fn to_json(&self) -> Map<String, Value> {
         let mut map = Map::new();
         map.insert("voxel_size".to_owned(), json_f32(self.voxel_size));
         map.insert("min_clearance".to_owned(), json_f32(self.min_clearance));
@@ -128,7 +129,7 @@ pub struct SdfCandidates {
 ///    Clusters smaller than `min_cluster_voxels` are dropped; a probe goes to each cluster's
 ///    mean;
 /// 6. a mean that falls outside free space (or nearer to geometry than half the clearance),
-///    or where [`inside_geometry`](crate::inside_geometry) says a probe would see mostly back
+///    or where [`inside_geometry`](crate::candidates::inside_geometry) says a probe would see mostly back
 ///    faces, moves to the cluster's nearest voxel that passes these tests (the cluster is
 ///    dropped if none of its 16 nearest does).
 ///
@@ -181,10 +182,11 @@ pub fn sdf_candidates(scene: &Scene, params: &SdfParams) -> Result<SdfCandidates
             positions.push(p);
         }
     }
-    let mut parameters = params.to_json();
-    parameters.insert("skeleton_voxels".to_owned(), Value::from(skeleton_count));
     Ok(SdfCandidates {
-        probes: ProbeSet::new(positions).with_method("sdf", parameters),
+        probes: ProbeSet::new(positions).with_method(PlacementMethod::Sdf {
+            params: params.clone(),
+            skeleton_voxels: skeleton_count,
+        }),
         voxels,
         distances,
         skeleton_voxels: skeleton_count,

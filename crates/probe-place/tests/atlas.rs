@@ -2,7 +2,8 @@
 //! the reward of eq. 3.1–3.2, incremental updates, the free-space vote, the report and errors.
 
 use glam::Vec3;
-use probe_place::{
+use probe_place::PlacementMethod;
+use probe_place::atlas::{
     Atlas, AtlasError, AtlasParams, AtlasState, BackfaceVote, FreeSpace, PlacementReport,
     RewardWeights, TexelAggregation, free_space_grid,
 };
@@ -156,8 +157,10 @@ fn grid_probes_inside_the_boxes_see_nothing() {
     let free = BackfaceVote::new(&scene);
     assert!(grid.iter().all(|p| free.inside_geometry(*p)));
     let report = PlacementReport::measure(
-        "grid",
-        serde_json::json!({"dims": BOXES_GRID}),
+        PlacementMethod::Grid {
+            dims: BOXES_GRID,
+            bounds: scene.bounds(),
+        },
         &atlas,
         &free,
         &grid,
@@ -427,8 +430,13 @@ fn report_serialises_with_the_coverage_rule() {
     let free = BackfaceVote::new(&scene);
     let probes = [Vec3::new(0.2, 0.45, 0.2), Vec3::new(0.45, 0.1, 0.1)];
     let report = PlacementReport::measure(
-        "manual",
-        serde_json::json!({"note": "two hand-placed probes"}),
+        PlacementMethod::Recorded {
+            name: "manual".into(),
+            parameters: serde_json::json!({"note": "two hand-placed probes"})
+                .as_object()
+                .unwrap()
+                .clone(),
+        },
         &atlas,
         &free,
         &probes,
@@ -441,6 +449,11 @@ fn report_serialises_with_the_coverage_rule() {
     assert!(report.mean_best_view_cosine > 0.2 && report.mean_best_view_cosine <= 1.0);
     let json = report.to_json();
     assert!(json.contains("\"coverage_rule\""));
+    assert!(json.contains("\"method\": \"manual\""), "{json}");
+    assert!(
+        json.contains("\"note\": \"two hand-placed probes\""),
+        "{json}"
+    );
     let back: PlacementReport = serde_json::from_str(&json).unwrap();
     assert_eq!(back, report);
 }

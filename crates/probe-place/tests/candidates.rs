@@ -1,9 +1,13 @@
 //! SDF-skeleton and medial-axis candidates on built-in scenes and the shared real scenes.
 
 use glam::{Vec2, Vec3};
+use probe_place::PlacementMethod;
 use probe_place::{
-    CandidateError, MedialParams, ProbeSet, SdfParams, VoxelGrid, VoxelState, inside_geometry,
-    medial_candidates, sample_surfaces, sdf_candidates,
+    ProbeSet,
+    candidates::{
+        CandidateError, MedialParams, SdfParams, VoxelGrid, VoxelState, inside_geometry,
+        medial_candidates, sample_surfaces, sdf_candidates,
+    },
 };
 use probe_scene::{Material, Scene, Triangle};
 
@@ -77,7 +81,8 @@ fn sdf_candidates_in_the_cornell_box() {
     let count = result.probes.len();
     // A handful, as in seed 000's Fig. 3.3 (7 probes there).
     assert!((4..=14).contains(&count), "{count} probes");
-    assert_eq!(result.probes.method, "sdf");
+    assert!(matches!(result.probes.method, PlacementMethod::Sdf { .. }));
+    assert_eq!(result.probes.method.name(), "sdf");
     assert!(result.skeleton_voxels > 1000);
     assert_in_free_space(&scene, &result.voxels, &result.probes);
     for &p in &result.probes.positions {
@@ -190,8 +195,15 @@ fn medial_candidates_in_the_cornell_box() {
     let result = medial_candidates(&scene, &params).unwrap();
     let count = result.probes.len();
     assert!((4..=16).contains(&count), "{count} probes");
-    assert_eq!(result.probes.method, "medial");
-    assert_eq!(result.probes.parameters["sample_count"], 30_000);
+    assert!(matches!(
+        &result.probes.method,
+        PlacementMethod::Medial { params: recorded, .. } if *recorded == params
+    ));
+    assert_eq!(result.probes.method.name(), "medial");
+    assert_eq!(result.probes.method.parameters()["sample_count"], 30_000);
+    // A medial set survives a save and load with its typed method.
+    let back = ProbeSet::from_json(&result.probes.to_json().unwrap()).unwrap();
+    assert_eq!(back.method, result.probes.method);
     assert_in_free_space(&scene, &result.voxels, &result.probes);
     for &p in &result.probes.positions {
         assert!(!in_cornell_block(p), "{p} in a block");

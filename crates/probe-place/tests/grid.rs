@@ -1,9 +1,13 @@
 //! Regular grids, DDGI-style classification and relocation, the inside test and probe-set files.
 
 use glam::Vec3;
+use probe_place::PlacementMethod;
 use probe_place::{
-    CandidateError, ClassifyParams, MAX_GRID_DIM, MAX_GRID_PROBES, MAX_RELOCATION_FRACTION,
-    ProbeSet, ProbeSetError, RegularGrid, classify_grid, inside_geometry,
+    ProbeSet, ProbeSetError,
+    candidates::{
+        CandidateError, ClassifyParams, MAX_GRID_DIM, MAX_GRID_PROBES, MAX_RELOCATION_FRACTION,
+        RegularGrid, classify_grid, inside_geometry,
+    },
 };
 use probe_scene::builtin::{BOXES_BOX_SIZE, BOXES_GRID, grid_cell_centers};
 use probe_scene::{Aabb, Material, Scene, Triangle};
@@ -38,11 +42,19 @@ fn grid_spec_over_scene_bounds() {
     let scene = boxes();
     let set = ProbeSet::from_spec("grid:4x2x4", &scene).unwrap();
     assert_eq!(set.len(), 32);
-    assert_eq!(set.method, "grid");
-    assert_eq!(set.parameters["dims"], serde_json::json!([4, 2, 4]));
+    assert_eq!(
+        set.method,
+        PlacementMethod::Grid {
+            dims: [4, 2, 4],
+            bounds: scene.bounds()
+        }
+    );
+    assert_eq!(set.method.name(), "grid");
+    let parameters = set.method.parameters();
+    assert_eq!(parameters["dims"], serde_json::json!([4, 2, 4]));
     // Parameters are written as the shortest decimals of their f32 values.
     assert_eq!(
-        set.parameters["bounds"],
+        parameters["bounds"],
         serde_json::json!([[-4.2, -0.2, -4.2], [4.2, 3.2, 4.2]])
     );
     assert_eq!(
@@ -179,7 +191,7 @@ fn classification_removes_probes_inside_the_boxes() {
     .unwrap();
     assert!(classified.positions.is_empty());
     assert_eq!(classified.removed, (0..32).collect::<Vec<_>>());
-    assert_eq!(classified.probe_set().method, "grid-classified");
+    assert_eq!(classified.probe_set().method.name(), "grid-classified");
 
     // A grid whose centres are in the open keeps all its probes where they are.
     let open = RegularGrid::over_scene(&scene, [3, 1, 3]).unwrap();
@@ -224,7 +236,16 @@ fn relocation_moves_probes_out_of_the_boxes_within_45_percent_of_a_cell() {
         assert!((p - centers[index]).abs().max_element() >= 0.5 * BOXES_BOX_SIZE);
     }
     let set = relocated.probe_set();
-    assert_eq!(set.method, "grid-relocated");
+    assert!(matches!(
+        set.method,
+        PlacementMethod::ClassifiedGrid {
+            dims: [4, 2, 4],
+            removed: 0,
+            relocated: true,
+            ..
+        }
+    ));
+    assert_eq!(set.method.name(), "grid-relocated");
     assert_eq!(set.len(), 32);
 }
 

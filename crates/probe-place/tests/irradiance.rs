@@ -3,9 +3,11 @@
 
 use glam::Vec3;
 use probe_place::{
-    BackfaceVote, FreeSpace, GradientAscentParams, IrradianceError, LightingOracle,
-    PointLightOracle, SpawnMergeParams, gradient_ascent, irradiance_gradient, k_means,
-    spawn_and_merge,
+    atlas::{BackfaceVote, FreeSpace},
+    irradiance::{
+        GradientAscentParams, IrradianceError, LightingOracle, PointLightOracle, SpawnMergeParams,
+        gradient_ascent, irradiance_gradient, k_means, spawn_and_merge,
+    },
 };
 use probe_scene::Scene;
 use probe_scene::builtin::{LEAK_DARK_ROOM, LEAK_LIT_ROOM};
@@ -66,7 +68,7 @@ fn spawn_and_merge_thins_flat_lighting_and_refines_near_the_light() {
         .count();
     assert_eq!(lit + dark, probes.len());
     // The starting grid had the same number of points in both (mirror-image) rooms.
-    let start = probe_place::free_space_grid(&free, 0.5);
+    let start = probe_place::atlas::free_space_grid(&free, 0.5);
     let start_dark = start
         .iter()
         .filter(|p| LEAK_DARK_ROOM.contains(**p))
@@ -106,7 +108,7 @@ fn gradient_ascent_climbs_towards_the_light_and_clusters_the_unlit() {
         unlit_clusters: 3,
         ..GradientAscentParams::with_spacing(0.6)
     };
-    let start = probe_place::free_space_grid(&free, 0.6);
+    let start = probe_place::atlas::free_space_grid(&free, 0.6);
     let start_lit: Vec<Vec3> = start
         .iter()
         .copied()

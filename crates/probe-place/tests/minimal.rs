@@ -3,8 +3,9 @@
 
 use glam::Vec3;
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, MinimalSetError,
-    free_space_grid, minimal_cover, prune_redundant,
+    atlas::{Atlas, AtlasParams, BackfaceVote, FreeSpace, free_space_grid},
+    minimal::{CoverParams, MinimalSetError, minimal_cover, prune_redundant},
+    optimize::GibbsParams,
 };
 use probe_scene::Scene;
 use probe_scene::builtin::grid_cell_centers;

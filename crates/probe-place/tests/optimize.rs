@@ -3,8 +3,8 @@
 
 use glam::Vec3;
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, DescentParams, FreeSpace, GibbsParams, OptimizeError,
-    Optimized, RewardWeights, descend, free_space_grid, gibbs,
+    atlas::{Atlas, AtlasParams, BackfaceVote, FreeSpace, RewardWeights, free_space_grid},
+    optimize::{DescentParams, GibbsParams, OptimizeError, Optimized, descend, gibbs},
 };
 use probe_scene::Scene;
 use std::sync::OnceLock;
@@ -167,11 +167,11 @@ fn optimisers_stop_at_full_coverage() {
     // Probes from a minimal full cover are already done: no iteration runs.
     with_atlas(|atlas, free| {
         let (_, _, pool) = cornell();
-        let set = probe_place::minimal_cover(
+        let set = probe_place::minimal::minimal_cover(
             atlas,
             free,
             pool,
-            &probe_place::CoverParams::full_coverage(),
+            &probe_place::minimal::CoverParams::full_coverage(),
         )
         .unwrap();
         assert!(set.reached_target);

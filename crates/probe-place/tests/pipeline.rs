@@ -2,8 +2,12 @@
 //! optimiser, report) that `probes place` and probe-eval run.
 
 use glam::Vec3;
+use probe_place::PlacementMethod;
 use probe_place::pipeline::{Method, Optimizer, PlaceError, PlaceOptions, fill_to_budget, place};
-use probe_place::{Atlas, AtlasParams, BackfaceVote, PointLightOracle, free_space_grid};
+use probe_place::{
+    atlas::{Atlas, AtlasParams, BackfaceVote, free_space_grid},
+    irradiance::PointLightOracle,
+};
 use probe_scene::Scene;
 
 fn options(method: Method) -> PlaceOptions {
@@ -19,8 +23,12 @@ fn a_grid_is_placed_whole_and_named() {
     let placed = place(&scene, &options(Method::Grid([3, 2, 2])), None).unwrap();
     assert_eq!(placed.probes.len(), 12);
     assert_eq!(placed.full_grid, Some([3, 2, 2]));
-    assert_eq!(placed.probes.method, "grid-3x2x2");
-    assert_eq!(placed.report.method, "grid-3x2x2");
+    assert_eq!(placed.probes.method.name(), "grid-3x2x2");
+    assert_eq!(placed.report.method, placed.probes.method);
+    assert!(matches!(
+        &placed.probes.method,
+        PlacementMethod::Placed(run) if run.method == Method::Grid([3, 2, 2]) && run.optimizer.is_none()
+    ));
     assert!(placed.history.is_none());
     assert!(placed.report.coverage > 0.0 && placed.report.coverage <= 1.0);
 }
@@ -44,7 +52,7 @@ fn a_budget_cuts_the_set_and_an_optimiser_records_its_history() {
         placed.full_grid, None,
         "a cut grid is no longer a full grid"
     );
-    assert_eq!(placed.probes.method, "grid-3x3x3+gibbs@3");
+    assert_eq!(placed.probes.method.name(), "grid-3x3x3+gibbs@3");
     assert!(placed.history.is_some_and(|h| !h.is_empty()));
 }
 
@@ -80,7 +88,11 @@ fn irradiance_methods_need_an_oracle_and_run_with_one() {
     let light = PointLightOracle::new(&scene, centre, Vec3::splat(5.0));
     let placed = place(&scene, &options(Method::SpawnMerge), Some(&light)).unwrap();
     assert!(!placed.probes.is_empty());
-    assert!(placed.probes.parameters.contains_key("lit"));
+    assert!(placed.probes.method.parameters().contains_key("lit"));
+    assert!(matches!(
+        &placed.probes.method,
+        PlacementMethod::Placed(run) if run.lit.is_some() && run.spacing.is_some()
+    ));
 }
 
 #[test]

@@ -2,9 +2,15 @@
 //! (double-sided quads) and the Godot room (a closed room with a doorway).
 
 use glam::Vec3;
+use probe_place::PlacementMethod;
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, CoverParams, FreeSpace, GibbsParams, PlacementReport,
-    VoxelFreeSpace, VoxelGrid, VoxelState, free_space_grid, gibbs, minimal_cover,
+    atlas::{
+        Atlas, AtlasParams, BackfaceVote, FreeSpace, PlacementReport, VoxelFreeSpace,
+        free_space_grid,
+    },
+    candidates::{VoxelGrid, VoxelState},
+    minimal::{CoverParams, minimal_cover},
+    optimize::{GibbsParams, gibbs},
 };
 use probe_scene::Scene;
 use probe_testdata::{CORNELL_BOX, GODOT_ROOM, scene_path};
@@ -58,8 +64,10 @@ fn cornell_box_gltf_full_coverage_from_a_minimal_set() {
     let set = minimal_cover(&atlas, &free, &pool, &CoverParams::full_coverage()).unwrap();
     let probes = set.positions();
     let report = PlacementReport::measure(
-        "minimal-cover",
-        serde_json::json!({"target_coverage": 1.0}),
+        PlacementMethod::Recorded {
+            name: "minimal-cover".into(),
+            parameters: serde_json::Map::new(),
+        },
         &atlas,
         &free,
         &probes,
@@ -96,8 +104,10 @@ fn godot_room_full_coverage_with_no_probe_outside_or_inside_walls() {
     assert!(set.reached_target);
     let probes = set.positions();
     let report = PlacementReport::measure(
-        "minimal-cover",
-        serde_json::json!({}),
+        PlacementMethod::Recorded {
+            name: "minimal-cover".into(),
+            parameters: serde_json::Map::new(),
+        },
         &atlas,
         &free,
         &probes,

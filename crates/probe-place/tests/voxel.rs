@@ -2,7 +2,7 @@
 //! scenes and the shared real scenes.
 
 use glam::Vec3;
-use probe_place::{CandidateError, MAX_VOXELS, VoxelGrid, VoxelState};
+use probe_place::candidates::{CandidateError, MAX_VOXELS, VoxelGrid, VoxelState};
 use probe_scene::builtin::{BOXES_GRID, grid_cell_centers};
 use probe_scene::{Material, Scene};
 

@@ -3,8 +3,10 @@
 
 use glam::Vec3;
 use probe_place::{
-    Atlas, AtlasParams, BackfaceVote, FreeSpace, GibbsParams, SdfParams, VoxelFreeSpace,
-    free_space_grid, gibbs, inside_geometry, prune_redundant, sdf_candidates,
+    atlas::{Atlas, AtlasParams, BackfaceVote, FreeSpace, VoxelFreeSpace, free_space_grid},
+    candidates::{SdfParams, inside_geometry, sdf_candidates},
+    minimal::prune_redundant,
+    optimize::{GibbsParams, gibbs},
 };
 use probe_scene::Scene;
 

@@ -89,7 +89,7 @@ impl Report for IndexSummary {
             "duplicates": r.duplicates,
             "tetrahedra": r.tetrahedra,
             "hull_faces": r.hull_faces,
-            "delaunay_skipped": r.delaunay_skipped,
+            "delaunay_skipped": r.delaunay_skipped.map(|why| why.to_string()),
             "bytes": {
                 "tetrahedra": r.tetrahedra_bytes,
                 "nearest_tree": r.nearest_bytes,

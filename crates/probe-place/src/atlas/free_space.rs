@@ -7,7 +7,7 @@ use glam::Vec3;
 use probe_scene::{Aabb, Ray, Scene};
 
 /// Decides where probes may stand. The optimisers only move probes to points for which
-/// [`FreeSpace::is_free`] holds, and [`PlacementReport`](crate::PlacementReport) counts the
+/// [`FreeSpace::is_free`] holds, and [`PlacementReport`](crate::atlas::PlacementReport) counts the
 /// probes for which [`FreeSpace::inside_geometry`] holds.
 ///
 /// [`BackfaceVote`] (a ray vote) and [`VoxelFreeSpace`] (the SDF generator's voxels) implement
@@ -27,8 +27,8 @@ pub trait FreeSpace: Sync {
 }
 
 /// The free-space test of this crate's placements: DDGI's classification, as
-/// [`inside_geometry`](crate::inside_geometry) decides it — of
-/// [`INSIDE_TEST_RAYS`](crate::INSIDE_TEST_RAYS) rays in fixed spherical Fibonacci directions,
+/// [`inside_geometry`](crate::candidates::inside_geometry) decides it — of
+/// [`INSIDE_TEST_RAYS`](crate::candidates::INSIDE_TEST_RAYS) rays in fixed spherical Fibonacci directions,
 /// more than `backface_fraction` (default [`INSIDE_BACKFACE_SHARE`]) first hit the back face of
 /// a single-sided triangle (seen from inside a closed solid, every face is a back face) — plus
 /// the bounds and a clearance.
@@ -46,7 +46,7 @@ pub struct BackfaceVote<'a> {
     pub bounds: Aabb,
     /// The share of rays that must hit back faces for the point to count as inside
     /// geometry; default [`INSIDE_BACKFACE_SHARE`], with which
-    /// [`FreeSpace::inside_geometry`] agrees with [`inside_geometry`](crate::inside_geometry).
+    /// [`FreeSpace::inside_geometry`] agrees with [`inside_geometry`](crate::candidates::inside_geometry).
     pub backface_fraction: f32,
     /// The smallest distance to a surface, along any of the rays, at which a probe may stand;
     /// default 0.25 % of the scene's bounding-box diagonal.
@@ -183,8 +183,8 @@ impl<A: FreeSpace, B: FreeSpace> FreeSpace for (A, B) {
 /// The centres of a regular grid of cells of edge `spacing` over `free.bounds()` that are
 /// free ([`FreeSpace::is_free`]), x fastest then y then z. Per axis the grid has
 /// `max(1, round(extent / spacing))` cells and is centred in the bounds. Used as the default
-/// reference points of an [`Atlas`](crate::Atlas) and as a dense candidate pool for
-/// [`minimal_cover`](crate::minimal_cover). The classification runs in parallel.
+/// reference points of an [`Atlas`](crate::atlas::Atlas) and as a dense candidate pool for
+/// [`minimal_cover`](crate::minimal::minimal_cover). The classification runs in parallel.
 ///
 /// Returns an empty list for a non-positive or non-finite `spacing` or empty bounds.
 pub fn free_space_grid(free: &dyn FreeSpace, spacing: f32) -> Vec<Vec3> {

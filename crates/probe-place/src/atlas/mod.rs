@@ -8,6 +8,8 @@ mod state;
 pub use free_space::{BackfaceVote, FreeSpace, VoxelFreeSpace, free_space_grid};
 pub use state::{AtlasState, Evaluation};
 
+pub use crate::report::{COVERAGE_RULE, PlacementReport};
+
 use crate::par::*;
 use glam::{Vec2, Vec3};
 use probe_scene::{Ray, Scene};

@@ -191,16 +191,22 @@ pub fn capture_bake(scene: &Scene, positions: &[Vec3], resolution: u32) -> Bake 
 pub fn placement(scene: &Scene, method: &str) -> Vec<Vec3> {
     match method {
         "sdf" => {
-            probe_place::sdf_candidates(scene, &probe_place::SdfParams::for_scene(scene))
-                .expect("SDF candidates")
-                .probes
-                .positions
+            probe_place::candidates::sdf_candidates(
+                scene,
+                &probe_place::candidates::SdfParams::for_scene(scene),
+            )
+            .expect("SDF candidates")
+            .probes
+            .positions
         }
         "medial" => {
-            probe_place::medial_candidates(scene, &probe_place::MedialParams::for_scene(scene))
-                .expect("medial candidates")
-                .probes
-                .positions
+            probe_place::candidates::medial_candidates(
+                scene,
+                &probe_place::candidates::MedialParams::for_scene(scene),
+            )
+            .expect("medial candidates")
+            .probes
+            .positions
         }
         other => panic!("unknown placement {other}"),
     }
