@@ -19,7 +19,7 @@
 //! options.atlas_texels = 2000;
 //! let placed = place(&scene, &options, None)?;
 //! assert!(!placed.probes.is_empty());
-//! assert_eq!(placed.probes.method, "sdf+gibbs");
+//! assert_eq!(placed.probes.method.name(), "sdf+gibbs");
 //! assert_eq!(placed.report.probes_inside_geometry, 0);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
