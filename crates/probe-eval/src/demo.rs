@@ -417,7 +417,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         }
         placed_positions.push(placed.probes.positions.clone());
         placed_sets.push(Placed {
-            name: *name,
+            name,
             coverage: placed.report.coverage,
             place_seconds: placed.report.seconds,
             bake_seconds,
