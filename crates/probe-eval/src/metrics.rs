@@ -264,12 +264,12 @@ impl PixelClass {
     /// The colour's name, for legends.
     pub fn colour_name(self) -> &'static str {
         match self {
-            PixelClass::CorrectHit => "dark green",
+            PixelClass::CorrectHit => "green",
             PixelClass::RadianceError => "yellow",
             PixelClass::WrongHit => "red",
             PixelClass::FalseHit => "magenta",
             PixelClass::WrongMiss => "cyan",
-            PixelClass::CorrectMiss => "dark blue",
+            PixelClass::CorrectMiss => "blue",
             PixelClass::Unknown => "white",
             PixelClass::NoRay => "black",
         }
