@@ -112,6 +112,15 @@ impl Series {
     }
 }
 
+/// A horizontal line across a chart ([`ChartSpec::floors`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Floor {
+    /// The legend entry.
+    pub name: String,
+    /// Its height, in the vertical axis' units.
+    pub y: f64,
+}
+
 /// Everything a chart shows. Build one with [`ChartSpec::new`] and set the public fields.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChartSpec {
@@ -129,6 +138,11 @@ pub struct ChartSpec {
     pub series: Vec<Series>,
     /// Whether to draw the Pareto front (minimising `x` and `y`) over all series' points.
     pub pareto_front: bool,
+    /// Horizontal lines across the data (e.g. a noise floor: errors near it cannot be told
+    /// apart), each grey and dashed with a legend entry, never part of the Pareto front; the
+    /// vertical axis is fitted to include them. A value that cannot be drawn (NaN, or ≤ 0 on
+    /// a logarithmic axis) is left out.
+    pub floors: Vec<Floor>,
     /// Width of both pictures in pixels (the SVG's user units), within
     /// [`MIN_CHART_SIDE`]`..=`[`MAX_CHART_SIDE`].
     pub width: u32,
@@ -156,6 +170,7 @@ impl ChartSpec {
             y_log: false,
             series: Vec::new(),
             pareto_front: false,
+            floors: Vec::new(),
             width: 1000,
             height: 700,
         }
@@ -518,6 +533,8 @@ struct Plan<'a> {
     spec: &'a ChartSpec,
     series: Vec<PlannedSeries<'a>>,
     front: Vec<(f64, f64)>,
+    floors: Vec<(&'a str, f64)>,
+    x_range: (f64, f64),
     x_axis: Axis,
     y_axis: Axis,
     summary: ChartSummary,
@@ -581,12 +598,26 @@ impl<'a> Plan<'a> {
                 summary.pareto_members.push(origin[i]);
             }
         }
+        let floors: Vec<(&str, f64)> = spec
+            .floors
+            .iter()
+            .filter(|f| f.y.is_finite() && (!spec.y_log || f.y > 0.0))
+            .map(|f| (f.name.as_str(), f.y))
+            .collect();
+        let x_range = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |r, p| {
+            (r.0.min(p.0), r.1.max(p.0))
+        });
         let x_axis = Axis::fit(all.iter().map(|p| p.0), spec.x_log);
-        let y_axis = Axis::fit(all.iter().map(|p| p.1), spec.y_log);
+        let y_axis = Axis::fit(
+            all.iter().map(|p| p.1).chain(floors.iter().map(|f| f.1)),
+            spec.y_log,
+        );
         Ok(Plan {
             spec,
             series,
             front,
+            floors,
+            x_range,
             x_axis,
             y_axis,
             summary,
@@ -756,6 +787,31 @@ impl<'a> Plan<'a> {
                     size: marker_size,
                     colour,
                     line: with_line.then_some((half, line_width)),
+                });
+        }
+
+        for &(name, y) in &self.floors {
+            let style = RGBColor(120, 120, 120).stroke_width(px(2.0) as u32);
+            let (x0, x1) = self.x_range;
+            // Dashed: 24 segments, every other drawn (evenly in the axis' own scale).
+            let at = |t: f64| {
+                if self.x_axis.log {
+                    (x0.ln() + (x1.ln() - x0.ln()) * t).exp()
+                } else {
+                    x0 + (x1 - x0) * t
+                }
+            };
+            let dashes = (0..24)
+                .step_by(2)
+                .map(|k| vec![(at(k as f64 / 24.0), y), (at((k + 1) as f64 / 24.0), y)]);
+            let half = px(14.0) as i32;
+            chart
+                .draw_series(dashes.map(|d| PathElement::new(d, style)))?
+                .label(name)
+                .legend(move |(lx, ly)| {
+                    EmptyElement::at((lx + half, ly))
+                        + PathElement::new(vec![(-half, 0), (-half / 3, 0)], style)
+                        + PathElement::new(vec![(half / 3, 0), (half, 0)], style)
                 });
         }
 

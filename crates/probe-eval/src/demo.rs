@@ -2,9 +2,22 @@
 //! (SDF skeleton refined by Gibbs sampling, against seed 000's 2×2×2 grid), bake them, index
 //! them, trace the one-bounce glossy component through them with the GPU tracer (both
 //! single-probe algorithms), render the path-traced reference, and tabulate probes, bake time,
-//! trace time, texel fetches per ray, MSE and PSNR, writing images and the table to a folder.
+//! trace time, texel fetches per ray, MSE, PSNR and FLIP, writing images and the table to a
+//! folder.
+//!
+//! Every MSE carries its noise floors. The reference is rendered after tracing until its
+//! noise (two half-sample images, [`crate::convergence`]) is at most 5 % of the smallest
+//! traced error, or a sample cap. Each placement is baked twice, with seeds `s` and `s + 1`:
+//! half the tone-mapped MSE between the two traced images is the bake's noise (the variance
+//! of one bake's image), reported beside the MSE of the first bake.
+//!
+//! Per configuration the demo writes the glossy image, an error map, an error-class image
+//! (one colour per [`PixelClass`]: see the table's legend) and the FLIP error map (magma:
+//! black = no visible difference, yellow-white = the most).
 
 use std::fmt::Write as _;
+
+use image::ImageEncoder as _;
 use std::path::{Path, PathBuf};
 
 use probe_capture::Image;
@@ -14,11 +27,12 @@ use serde::Serialize;
 use probe_index::ProbeGrid;
 use probe_place::pipeline::{Method, Optimizer, PlaceOptions};
 
+use crate::convergence::ReferenceNoise;
 use crate::lighting::place_lit;
-use crate::metrics::TraceMetrics;
+use crate::metrics::{Footprints, PixelClass, TraceMetrics, flip, flip_map_rgb8, tonemapped_mse};
 use crate::pipeline::{
-    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
-    trace_view,
+    Device, EvalView, ProbeMemory, Selection, TracedView, Tracer, ViewSettings, bake_for_view,
+    bake_for_view_seeded, build_index, compare_trace, trace_only,
 };
 use crate::top_view::{TopViewOptions, write_top_view};
 use crate::{EvalError, write_atomic};
@@ -38,10 +52,16 @@ pub struct DemoOptions {
     pub image_size: u32,
     /// Gibbs iterations.
     pub gibbs_iterations: usize,
+    /// The reference is refined until its noise is at most this share of the smallest traced
+    /// tone-mapped MSE.
+    pub reference_noise_fraction: f64,
+    /// The most shading samples per reference hit.
+    pub reference_max_samples: u32,
 }
 
 impl DemoOptions {
-    /// The defaults: 128² probes, 4 samples per texel, a 256² image, 30 Gibbs iterations.
+    /// The defaults: 128² probes, 4 samples per texel, a 256² image, 30 Gibbs iterations, a
+    /// reference refined to 5 % of the smallest error with at most 2048 samples per hit.
     pub fn new(out: impl Into<PathBuf>) -> DemoOptions {
         DemoOptions {
             out: out.into(),
@@ -50,6 +70,8 @@ impl DemoOptions {
             samples_per_texel: 4,
             image_size: 256,
             gibbs_iterations: 30,
+            reference_noise_fraction: 0.05,
+            reference_max_samples: 2048,
         }
     }
 }
@@ -75,6 +97,10 @@ pub struct DemoRow {
     pub trace: TraceMetrics,
     /// The probes' glossy image (PNG).
     pub image: PathBuf,
+    /// The error-class image (PNG).
+    pub classes_image: PathBuf,
+    /// The FLIP error map (PNG).
+    pub flip_image: PathBuf,
 }
 
 /// The demo's result.
@@ -88,6 +114,8 @@ pub struct DemoReport {
     pub rays: usize,
     /// Seconds to render the reference.
     pub reference_seconds: f64,
+    /// The reference's samples per hit and its noise.
+    pub reference: ReferenceNoise,
     /// The rows.
     pub rows: Vec<DemoRow>,
     /// The files written.
@@ -105,17 +133,17 @@ impl DemoReport {
         );
         let _ = writeln!(
             text,
-            "| placement | probes | coverage | bake (s) | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | MSE (tone-mapped) | PSNR (dB) |"
+            "| placement | probes | coverage | bake (s) | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | MSE (tone-mapped) | reference noise | bake noise | PSNR (dB) | FLIP |"
         );
         let _ = writeln!(
             text,
-            "|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|"
+            "|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
         );
         for row in &self.rows {
             let t = &row.trace;
             let _ = writeln!(
                 text,
-                "| {} | {} | {:.1} % | {:.2} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.3e} | {:.2} |",
+                "| {} | {} | {:.1} % | {:.2} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.3e} | {:.1e} | {} | {:.2} | {:.4} |",
                 row.placement,
                 row.probes,
                 100.0 * row.coverage,
@@ -128,9 +156,62 @@ impl DemoReport {
                 100.0 * t.status_agreement,
                 t.mse,
                 t.mse_tonemapped,
-                t.psnr
+                t.reference_noise,
+                t.bake_noise
+                    .map_or("not measured".to_owned(), |n| format!("{n:.1e}")),
+                t.psnr,
+                t.flip
             );
         }
+        let _ = writeln!(
+            text,
+            "\nNoise floors are tone-mapped variances, in the units of the tone-mapped MSE: an \
+             image equal to the truth would still score about reference noise + bake noise. \
+             Reference: {} shading samples per hit in {} passes, noise {:.2e}{}. Bake noise: \
+             half the tone-mapped MSE between the images of two bakes with different seeds.",
+            self.reference.samples,
+            self.reference.passes,
+            self.reference.noise,
+            match self.reference.target {
+                Some(target) if self.reference.converged =>
+                    format!(" (target {target:.2e}, 5 % of the smallest error: met)"),
+                Some(target) => format!(
+                    " (target {target:.2e}, 5 % of the smallest error: not met within the sample cap)"
+                ),
+                None => String::new(),
+            }
+        );
+        let _ = writeln!(
+            text,
+            "\nPixel classes (share of pixels / share of the tone-mapped MSE):\n"
+        );
+        let mut header = "| placement | selection | tracer |".to_owned();
+        let mut rule = "|---|---|---|".to_owned();
+        for class in PixelClass::ALL {
+            let _ = write!(header, " {} |", class.name());
+            rule.push_str("---:|");
+        }
+        let _ = writeln!(text, "{header}\n{rule}");
+        for row in &self.rows {
+            let t = &row.trace;
+            let _ = write!(
+                text,
+                "| {} | {} | {} |",
+                row.placement,
+                t.selection.name(),
+                t.tracer.name()
+            );
+            for share in &t.classes {
+                let _ = write!(
+                    text,
+                    " {:.1} % / {:.1} % |",
+                    100.0 * share.pixels,
+                    100.0 * share.mse
+                );
+            }
+            let _ = writeln!(text);
+        }
+        let _ = writeln!(text, "\n{}", class_legend());
         let _ = writeln!(
             text,
             "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}.",
@@ -145,9 +226,38 @@ impl DemoReport {
     }
 }
 
+/// The legend of the error-class images: each class's colour and meaning.
+pub fn class_legend() -> String {
+    let mut text = "Error-class images (`classes_*.png`): ".to_owned();
+    let parts: Vec<String> = PixelClass::ALL
+        .iter()
+        .map(|c| format!("{} = {}", c.colour_name(), c.name()))
+        .collect();
+    text.push_str(&parts.join(", "));
+    text.push_str(
+        ". A correct hit lies within one probe texel footprint of the true hit with radiance \
+         within 0.05 (tone-mapped) of the reference; a radiance-only error is on the right \
+         surface with radiance off by more. FLIP maps (`flip_*.png`): magma, black = no visible \
+         difference.",
+    );
+    text
+}
+
 fn save_png(image: &Image, path: &Path, exposure: f32) -> Result<(), EvalError> {
     image.save_png_with_exposure(path, exposure)?;
     Ok(())
+}
+
+/// Writes 8-bit RGB as a PNG, atomically.
+fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), EvalError> {
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| EvalError::Write {
+            path: path.to_owned(),
+            source: std::io::Error::other(e),
+        })?;
+    write_atomic(path, &bytes)
 }
 
 /// A false-colour picture of the per-pixel error (RGB mean of |probe − reference|, scaled so
@@ -193,15 +303,9 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         shading_samples: 16,
         ..ViewSettings::default()
     };
-    log("rendering the path-traced reference");
-    let view = EvalView::render(&scene, scene.default_camera(), settings, &|_, _| {})?;
-    let exposure = 0.6 / view.reference_image.mean().max_element().max(1e-6);
+    log("rendering the path-traced reference (first two passes)");
+    let mut view = EvalView::render(&scene, scene.default_camera(), settings, &|_, _| {})?;
     let mut files = Vec::new();
-    let reference_png = out.join("reference_glossy.png");
-    save_png(&view.reference_image, &reference_png, exposure)?;
-    view.reference_image
-        .save_exr(out.join("reference_glossy.exr"))?;
-    files.push(reference_png);
     let rays = view.trace_rays();
 
     let placements = [
@@ -213,7 +317,23 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         }),
         ("grid 2x2x2", PlaceOptions::new(Method::Grid([2, 2, 2]))),
     ];
-    let mut rows = Vec::new();
+    // Trace everything first; the reference is refined against the traced errors after.
+    struct Pending {
+        placement: usize,
+        traced: TracedView,
+        bake_noise: f64,
+    }
+    struct Placed {
+        name: &'static str,
+        coverage: f64,
+        place_seconds: f64,
+        bake_seconds: f64,
+        index_seconds: f64,
+        memory: ProbeMemory,
+        baked: probe_capture::ProbeBake,
+    }
+    let mut placed_sets: Vec<Placed> = Vec::new();
+    let mut pending = Vec::new();
     let mut placed_positions = Vec::new();
     for (name, place_options) in &placements {
         log(&format!("placing: {name}"));
@@ -225,9 +345,11 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             placed.report.probes_inside_geometry
         ));
         log(&format!(
-            "baking {} probes at {}²",
+            "baking {} probes at {}² (twice, seeds {} and {}, for the bake's noise)",
             placed.probes.len(),
-            options.resolution
+            options.resolution,
+            view.settings.seed,
+            view.settings.seed + 1
         ));
         let (baked, bake_seconds) = bake_for_view(
             &scene,
@@ -235,6 +357,15 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             options.resolution,
             options.samples_per_texel,
             &view,
+            &|_, _| {},
+        )?;
+        let (second, _) = bake_for_view_seeded(
+            &scene,
+            &placed.probes.positions,
+            options.resolution,
+            options.samples_per_texel,
+            &view,
+            view.settings.seed + 1,
             &|_, _| {},
         )?;
         let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
@@ -246,55 +377,139 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             ProbeGrid::detect(baked.positions()),
             0,
         )?;
-        let slug: String = name
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-            .collect();
-        if rows.is_empty() {
+        if placed_sets.is_empty() {
             let previews = baked.write_previews(0, out)?;
             files.extend([previews.radiance, previews.normal, previews.distance]);
         }
         for selection in [Selection::Grid, Selection::Svo] {
             for tracer in Tracer::ALL {
-                let Some((metrics, image)) =
-                    trace_view(&mut device, &baked, &index, &view, &rays, tracer, selection)?
+                let Some(traced) =
+                    trace_only(&mut device, &baked, &index, &view, &rays, tracer, selection)?
+                else {
+                    continue;
+                };
+                let Some(twin) = trace_only(
+                    &mut device,
+                    &second,
+                    &index,
+                    &view,
+                    &rays,
+                    tracer,
+                    selection,
+                )?
                 else {
                     continue;
                 };
                 log(&format!(
-                    "  traced {} / {}: {:.1} ms, {:.1} fetches/ray, MSE {:.3e}",
+                    "  traced {} / {}: {:.1} ms, {:.1} fetches/ray",
                     selection.name(),
                     tracer.name(),
-                    metrics.trace_ms,
-                    metrics.fetches_per_ray,
-                    metrics.mse
+                    traced.gpu_ms.unwrap_or(traced.wall_ms),
+                    traced.results.iter().map(|r| r.texel_fetches).sum::<u32>() as f64
+                        / traced.results.len().max(1) as f64,
                 ));
-                let stem = format!("glossy_{slug}_{}_{}", selection.name(), tracer.name());
-                let png = out.join(format!("{stem}.png"));
-                save_png(&image, &png, exposure)?;
-                let error_png = out.join(format!(
-                    "error_{slug}_{}_{}.png",
-                    selection.name(),
-                    tracer.name()
-                ));
-                error_image(&image, &view.reference_image)
-                    .save_png_with_exposure(&error_png, 1.0)?;
-                files.push(png.clone());
-                files.push(error_png);
-                rows.push(DemoRow {
-                    placement: (*name).to_owned(),
-                    probes: baked.probe_count(),
-                    coverage: placed.report.coverage,
-                    place_seconds: placed.report.seconds,
-                    bake_seconds,
-                    index_seconds: index.seconds,
-                    memory,
-                    trace: metrics,
-                    image: png,
+                pending.push(Pending {
+                    placement: placed_sets.len(),
+                    bake_noise: tonemapped_mse(&traced.image, &twin.image) / 2.0,
+                    traced,
                 });
             }
         }
         placed_positions.push(placed.probes.positions.clone());
+        placed_sets.push(Placed {
+            name,
+            coverage: placed.report.coverage,
+            place_seconds: placed.report.seconds,
+            bake_seconds,
+            index_seconds: index.seconds,
+            memory,
+            baked,
+        });
+    }
+    log("refining the reference to 5 % of the smallest error");
+    let images: Vec<&Image> = pending.iter().map(|p| &p.traced.image).collect();
+    let reference = view.refine(
+        &scene,
+        &images,
+        options.reference_noise_fraction,
+        options.reference_max_samples,
+        &|_, _| {},
+    )?;
+    log(&format!(
+        "  reference: {} samples per hit, noise {:.2e} (target {})",
+        reference.samples,
+        reference.noise,
+        reference
+            .target
+            .map_or("none".to_owned(), |t| format!("{t:.2e}"))
+    ));
+    let exposure = 0.6 / view.reference_image.mean().max_element().max(1e-6);
+    let reference_png = out.join("reference_glossy.png");
+    save_png(&view.reference_image, &reference_png, exposure)?;
+    view.reference_image
+        .save_exr(out.join("reference_glossy.exr"))?;
+    files.push(reference_png);
+    let mut rows = Vec::new();
+    for entry in &pending {
+        let set = &placed_sets[entry.placement];
+        let (metrics, classes) = compare_trace(
+            Footprints::of(&set.baked),
+            &view,
+            &entry.traced,
+            Some(entry.bake_noise),
+        )?;
+        let image = &entry.traced.image;
+        let slug: String = set
+            .name
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        let suffix = format!(
+            "{slug}_{}_{}",
+            metrics.selection.name(),
+            metrics.tracer.name()
+        );
+        log(&format!(
+            "  {suffix}: MSE {:.3e} (tone-mapped {:.3e}; noise: reference {:.1e}, bake {:.1e}), FLIP {:.4}",
+            metrics.mse,
+            metrics.mse_tonemapped,
+            metrics.reference_noise,
+            entry.bake_noise,
+            metrics.flip
+        ));
+        let png = out.join(format!("glossy_{suffix}.png"));
+        save_png(image, &png, exposure)?;
+        let error_png = out.join(format!("error_{suffix}.png"));
+        error_image(image, &view.reference_image).save_png_with_exposure(&error_png, 1.0)?;
+        let classes_png = out.join(format!("classes_{suffix}.png"));
+        classes.image().save_png_with_exposure(&classes_png, 1.0)?;
+        let flip_png = out.join(format!("flip_{suffix}.png"));
+        let (flip_values, _) = flip(image, &view.reference_image)?;
+        write_png(
+            &flip_png,
+            image.width,
+            image.height,
+            &flip_map_rgb8(image.width, image.height, &flip_values),
+        )?;
+        files.extend([
+            png.clone(),
+            error_png,
+            classes_png.clone(),
+            flip_png.clone(),
+        ]);
+        rows.push(DemoRow {
+            placement: set.name.to_owned(),
+            probes: set.baked.probe_count(),
+            coverage: set.coverage,
+            place_seconds: set.place_seconds,
+            bake_seconds: set.bake_seconds,
+            index_seconds: set.index_seconds,
+            memory: set.memory,
+            trace: metrics,
+            image: png,
+            classes_image: classes_png,
+            flip_image: flip_png,
+        });
     }
     let top = out.join("top_view.png");
     let bounds = scene.bounds();
@@ -318,6 +533,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         cpu_fallback_reason: fallback,
         rays: rays.len(),
         reference_seconds: view.seconds,
+        reference: view.reference_noise,
         rows,
         files,
     };

@@ -11,9 +11,14 @@
 //!   lit as the reference is ([`pipeline::bake_for_view`]), the bake as the tracers take it
 //!   ([`pipeline::light_field`]), indexes ([`pipeline::build_index`]), the tracer on whatever
 //!   device exists ([`pipeline::Device`]) and one trace compared with the reference
-//!   ([`pipeline::trace_view`]).
+//!   ([`pipeline::trace_view`], or [`pipeline::trace_only`] then [`pipeline::compare_trace`]
+//!   so that the reference can be refined in between: [`pipeline::EvalView::refine`]).
+//! - [`convergence`]: references rendered progressively until their noise, estimated from two
+//!   independent half-sample images, is below a target ([`convergence::render_converged`]).
 //! - [`metrics`]: what a trace measured: ray status, hit position within a texel's footprint,
-//!   radiance, image MSE (raw, tone-mapped, relative), PSNR.
+//!   radiance, image MSE (raw, tone-mapped, relative), PSNR, FLIP ([`metrics::flip`]), the
+//!   noise floors of reference and bake beside them, and a class per pixel
+//!   ([`metrics::PixelClass`]) with each class's share of the pixels and of the MSE.
 //! - [`lighting`]: probe-capture's shading as probe-place's `LightingOracle`, so that seed
 //!   002's irradiance-driven placements run on any scene ([`lighting::place_lit`]).
 //! - [`demo`]: the Cornell-box run of `probes demo`.
@@ -66,10 +71,17 @@
 //! assert!(metrics.status_agreement > 0.5);
 //! assert!(metrics.mse.is_finite() && metrics.psnr > 0.0);
 //! assert_eq!((image.width, image.height), (24, 24));
+//! // Beside the MSE: FLIP, the reference's noise floor (from two half-sample passes) and
+//! // each pixel class's share of the pixels and of the MSE.
+//! assert!(metrics.flip > 0.0 && metrics.flip < 1.0);
+//! assert!(metrics.reference_noise > 0.0 && metrics.reference_noise.is_finite());
+//! let pixel_shares: f64 = metrics.classes.iter().map(|c| c.pixels).sum();
+//! assert!((pixel_shares - 1.0).abs() < 1e-9);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 pub mod chart;
+pub mod convergence;
 pub mod demo;
 pub mod failures;
 pub mod lighting;

@@ -24,7 +24,11 @@ use probe_trace_gpu::{
 use serde::{Deserialize, Serialize};
 
 use crate::EvalError;
-use crate::metrics::{TraceMetrics, compare_rays, mean_square, tonemapped_mse};
+use crate::convergence::{HalfSums, ReferenceNoise, half_sample_noise, pass_seed};
+use crate::metrics::{
+    Footprints, PixelClasses, TraceMetrics, classify_pixels, compare_rays_with, flip, mean_square,
+    tonemapped_mse,
+};
 
 /// How the evaluation rays of a view are made (also the `[view]` table of `eval.toml`; every
 /// field optional).
@@ -39,7 +43,10 @@ pub struct ViewSettings {
     pub rays_per_pixel: u32,
     /// Perceptual GGX roughness of every surface; 0 for mirror reflections.
     pub roughness: f32,
-    /// Shading samples per reference hit (area-light and bounce samples averaged).
+    /// Shading samples per reference hit (area-light and bounce samples averaged) of the
+    /// first render: two half-sample passes of half as many each (rounded up), so that the
+    /// reference's noise is estimated from the start ([`crate::convergence`]);
+    /// [`EvalView::refine`] adds more.
     pub shading_samples: u32,
     /// Diffuse bounces in the radiance a reflection ray picks up (the bake's, too).
     pub bounces: u32,
@@ -88,12 +95,18 @@ pub struct EvalView {
     pub reference: Vec<ReferenceSample>,
     /// The one-bounce glossy reference image (weighted mean of the reference radiance).
     pub reference_image: Image,
-    /// Seconds to render the reference.
+    /// Samples used and the reference's estimated noise (tone-mapped variance).
+    pub reference_noise: ReferenceNoise,
+    /// Seconds to render the reference (all passes).
     pub seconds: f64,
+    halves: HalfSums,
+    pass_samples: u32,
 }
 
 impl EvalView {
-    /// Renders the camera's G-buffer, makes its reflection rays and traces them against the BVH.
+    /// Renders the camera's G-buffer, makes its reflection rays and traces them against the BVH
+    /// in two independent half-sample passes (`settings.shading_samples` in all), which give
+    /// the reference's noise estimate ([`crate::convergence`]).
     ///
     /// # Errors
     /// [`EvalError::Render`] for bad settings.
@@ -112,25 +125,112 @@ impl EvalView {
             settings.rays_per_pixel,
             settings.seed,
         )?;
-        let shader = Shader::new(scene, environment, settings.bounces)?;
-        let reference = trace_reference(
-            &shader,
-            &rays,
-            settings.shading_samples,
-            settings.seed ^ 0x5eed,
-            progress,
-        );
-        let radiance: Vec<Vec3> = reference.iter().map(|r| r.radiance).collect();
-        let reference_image = accumulate_rays(settings.width, settings.height, &rays, &radiance)?;
-        Ok(EvalView {
+        let mut view = EvalView {
             camera,
             settings,
             environment,
+            reference: Vec::new(),
+            reference_image: Image::new(settings.width, settings.height),
+            reference_noise: ReferenceNoise {
+                samples: 0,
+                passes: 0,
+                noise: f64::INFINITY,
+                target: None,
+                converged: false,
+            },
+            seconds: 0.0,
+            halves: HalfSums::new(rays.len()),
+            pass_samples: settings.shading_samples.max(1).div_ceil(2),
             rays,
-            reference,
-            reference_image,
-            seconds: start.elapsed().as_secs_f64(),
-        })
+        };
+        view.add_passes(scene, 2, progress)?;
+        view.seconds = start.elapsed().as_secs_f64();
+        Ok(view)
+    }
+
+    /// Adds `passes` reference passes (pass `k` seeded [`pass_seed`]`(seed ^ 0x5eed, k)`) and
+    /// updates the reference, its image and its noise estimate.
+    fn add_passes(
+        &mut self,
+        scene: &Scene,
+        passes: u32,
+        progress: Progress<'_>,
+    ) -> Result<(), EvalError> {
+        let shader = Shader::new(scene, self.environment, self.settings.bounces)?;
+        for _ in 0..passes {
+            let seed = pass_seed(self.settings.seed ^ 0x5eed, self.halves.passes());
+            let samples = trace_reference(&shader, &self.rays, self.pass_samples, seed, progress);
+            let radiance: Vec<Vec3> = samples.iter().map(|r| r.radiance).collect();
+            self.halves.add(&radiance);
+            if self.reference.is_empty() {
+                self.reference = samples;
+            }
+        }
+        let (width, height) = (self.settings.width, self.settings.height);
+        let mean = self.halves.mean();
+        for (sample, radiance) in self.reference.iter_mut().zip(&mean) {
+            sample.radiance = *radiance;
+        }
+        self.reference_image = accumulate_rays(width, height, &self.rays, &mean)?;
+        let half = |k: usize| accumulate_rays(width, height, &self.rays, &self.halves.half_mean(k));
+        let noise = half_sample_noise(&half(0)?, &half(1)?);
+        self.reference_noise = ReferenceNoise {
+            samples: self.halves.passes() * self.pass_samples,
+            passes: self.halves.passes(),
+            noise,
+            target: self.reference_noise.target,
+            converged: self.reference_noise.target.is_some_and(|t| noise <= t),
+        };
+        Ok(())
+    }
+
+    /// Refines the reference until its noise estimate is at most `fraction` of the smallest
+    /// tone-mapped MSE of `images` against it (the pipeline's default: 0.05, "trace first,
+    /// then converge the reference to 5 % of the smallest error"), doubling the passes each
+    /// round, up to `max_samples` shading samples per hit. The smallest error is measured
+    /// again after each round (a noisy reference inflates it). With no images, or all equal
+    /// to the reference, nothing is refined. Returns how far it went (also in
+    /// [`Self::reference_noise`]).
+    ///
+    /// # Errors
+    /// [`EvalError::Render`] / [`EvalError::Shader`] as [`Self::render`]; [`EvalError::Config`]
+    /// for a `fraction` that is not positive and finite.
+    pub fn refine(
+        &mut self,
+        scene: &Scene,
+        images: &[&Image],
+        fraction: f64,
+        max_samples: u32,
+        progress: Progress<'_>,
+    ) -> Result<ReferenceNoise, EvalError> {
+        if !(fraction.is_finite() && fraction > 0.0) {
+            return Err(EvalError::Config {
+                path: None,
+                reason: format!(
+                    "reference noise fraction {fraction}: give a positive share such as 0.05"
+                ),
+            });
+        }
+        let start = Instant::now();
+        loop {
+            let smallest = images
+                .iter()
+                .map(|image| tonemapped_mse(image, &self.reference_image))
+                .fold(f64::INFINITY, f64::min);
+            if !smallest.is_finite() || smallest <= 0.0 {
+                break;
+            }
+            let target = fraction * smallest;
+            self.reference_noise.target = Some(target);
+            self.reference_noise.converged = self.reference_noise.noise <= target;
+            let passes = self.halves.passes();
+            if self.reference_noise.converged || (2 * passes) * self.pass_samples > max_samples {
+                break;
+            }
+            self.add_passes(scene, passes, progress)?;
+        }
+        self.seconds += start.elapsed().as_secs_f64();
+        Ok(self.reference_noise)
     }
 
     /// The rays in the tracer's form (each starting at `t = 0` from its offset origin).
@@ -158,7 +258,7 @@ impl EvalView {
 }
 
 /// Bakes probes for an evaluation: the view's environment, so that bake and reference light
-/// the scene alike.
+/// the scene alike, and the view's seed.
 ///
 /// # Errors
 /// [`EvalError::Bake`] for bad settings or positions.
@@ -170,11 +270,37 @@ pub fn bake_for_view(
     view: &EvalView,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
+    bake_for_view_seeded(
+        scene,
+        positions,
+        resolution,
+        samples_per_texel,
+        view,
+        view.settings.seed,
+        progress,
+    )
+}
+
+/// [`bake_for_view`] with another seed: a second, independent bake of the same probes
+/// measures the bake's noise (half the tone-mapped MSE between the two traced images is the
+/// variance of one).
+///
+/// # Errors
+/// [`EvalError::Bake`] for bad settings or positions.
+pub fn bake_for_view_seeded(
+    scene: &Scene,
+    positions: &[Vec3],
+    resolution: u32,
+    samples_per_texel: u32,
+    view: &EvalView,
+    seed: u64,
+    progress: Progress<'_>,
+) -> Result<(ProbeBake, f64), EvalError> {
     let settings = BakeSettings {
         resolution,
         samples_per_texel,
         bounces: view.settings.bounces,
-        seed: view.settings.seed,
+        seed,
         environment: Some(view.environment),
         ..BakeSettings::default()
     };
@@ -465,12 +591,29 @@ impl Device {
     }
 }
 
-/// Traces a view's rays through a bake with one tracer and selection, and compares with the
-/// reference. Returns the metrics and the probes' glossy image.
+/// One trace of a view's rays through a bake, before it is compared with the reference (so
+/// the reference can be refined after tracing: [`EvalView::refine`]).
+pub struct TracedView {
+    /// The tracer.
+    pub tracer: Tracer,
+    /// The selection.
+    pub selection: Selection,
+    /// One result per ray.
+    pub results: Vec<RayResult>,
+    /// The probes' glossy image.
+    pub image: Image,
+    /// Milliseconds on the device (GPU timestamps when available).
+    pub gpu_ms: Option<f64>,
+    /// Wall-clock milliseconds of the call.
+    pub wall_ms: f64,
+}
+
+/// Traces a view's rays through a bake with one tracer and selection; `None` when the
+/// selection does not apply to the probes.
 ///
 /// # Errors
 /// [`EvalError`] from upload or trace.
-pub fn trace_view(
+pub fn trace_only(
     device: &mut Device,
     baked: &ProbeBake,
     index: &BuiltIndex,
@@ -478,7 +621,7 @@ pub fn trace_view(
     rays: &[TraceRay],
     tracer: Tracer,
     selection: Selection,
-) -> Result<Option<(TraceMetrics, Image)>, EvalError> {
+) -> Result<Option<TracedView>, EvalError> {
     let Some(probe_selection) = selection.of(index) else {
         return Ok(None);
     };
@@ -489,19 +632,49 @@ pub fn trace_view(
     device.trace(&field, &rays[..warm], &options)?;
     let output = device.trace(&field, rays, &options)?;
     let image = view.image_of(&output.results)?;
-    let summary = TraceSummary::of(&output.results);
-    let comparison = compare_rays(baked, &view.reference, &output.results);
-    let mse = image.mse(&view.reference_image)?;
-    let reference_power = mean_square(&view.reference_image);
-    let gpu_ms = output.timing.gpu.map(|d| d.as_secs_f64() * 1e3);
-    let wall_ms = output.timing.wall.as_secs_f64() * 1e3;
-    let metrics = TraceMetrics {
+    Ok(Some(TracedView {
         tracer,
         selection,
-        rays: rays.len(),
-        trace_ms: gpu_ms.unwrap_or(wall_ms),
-        wall_ms,
-        gpu_timestamps: gpu_ms.is_some(),
+        gpu_ms: output.timing.gpu.map(|d| d.as_secs_f64() * 1e3),
+        wall_ms: output.timing.wall.as_secs_f64() * 1e3,
+        results: output.results,
+        image,
+    }))
+}
+
+/// Compares a trace with the view's reference as it is now (`footprints` of the bake traced:
+/// [`Footprints::of`]): every metric of
+/// [`TraceMetrics`], the reference's noise beside them, `bake_noise` as given, and the pixel
+/// classes (returned too, for the error-class image).
+///
+/// # Errors
+/// [`EvalError::Image`] for a trace of another view.
+pub fn compare_trace(
+    footprints: Footprints<'_>,
+    view: &EvalView,
+    traced: &TracedView,
+    bake_noise: Option<f64>,
+) -> Result<(TraceMetrics, PixelClasses), EvalError> {
+    let image = &traced.image;
+    let summary = TraceSummary::of(&traced.results);
+    let comparison = compare_rays_with(footprints, &view.reference, &traced.results);
+    let mse = image.mse(&view.reference_image)?;
+    let reference_power = mean_square(&view.reference_image);
+    let classes = classify_pixels(
+        footprints,
+        &view.rays,
+        &view.reference,
+        &traced.results,
+        image,
+        &view.reference_image,
+    );
+    let metrics = TraceMetrics {
+        tracer: traced.tracer,
+        selection: traced.selection,
+        rays: traced.results.len(),
+        trace_ms: traced.gpu_ms.unwrap_or(traced.wall_ms),
+        wall_ms: traced.wall_ms,
+        gpu_timestamps: traced.gpu_ms.is_some(),
         fetches_per_ray: summary.fetches_per_ray,
         probes_per_ray: summary.probes_per_ray,
         hit_rate: summary.hits as f64 / summary.rays.max(1) as f64,
@@ -517,7 +690,33 @@ pub fn trace_view(
             mse
         },
         psnr: image.psnr(&view.reference_image)?,
-        mse_tonemapped: tonemapped_mse(&image, &view.reference_image),
+        mse_tonemapped: tonemapped_mse(image, &view.reference_image),
+        flip: flip(image, &view.reference_image)?.1,
+        reference_noise: view.reference_noise.noise,
+        bake_noise,
+        classes: classes.shares(image, &view.reference_image),
     };
-    Ok(Some((metrics, image)))
+    Ok((metrics, classes))
+}
+
+/// Traces a view's rays through a bake with one tracer and selection, and compares with the
+/// reference as it is ([`trace_only`], then [`compare_trace`] with the bake's noise not
+/// measured). Returns the metrics and the probes' glossy image.
+///
+/// # Errors
+/// [`EvalError`] from upload or trace.
+pub fn trace_view(
+    device: &mut Device,
+    baked: &ProbeBake,
+    index: &BuiltIndex,
+    view: &EvalView,
+    rays: &[TraceRay],
+    tracer: Tracer,
+    selection: Selection,
+) -> Result<Option<(TraceMetrics, Image)>, EvalError> {
+    let Some(traced) = trace_only(device, baked, index, view, rays, tracer, selection)? else {
+        return Ok(None);
+    };
+    let (metrics, _) = compare_trace(Footprints::of(baked), view, &traced, None)?;
+    Ok(Some((metrics, traced.image)))
 }

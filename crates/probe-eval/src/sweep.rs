@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
+use probe_capture::Image;
 use probe_place::{
     atlas::{Atlas, AtlasParams, BackfaceVote, RewardWeights, free_space_grid},
     optimize::{DescentParams, GibbsParams, descend, gibbs},
@@ -26,10 +27,10 @@ use probe_place::pipeline::{Method, Optimizer, PlaceError, PlaceOptions};
 use crate::chart::{ChartSpec, Point, Series, SeriesStyle, write_chart};
 use crate::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_suite};
 use crate::lighting::place_lit;
-use crate::metrics::TraceMetrics;
+use crate::metrics::{Footprints, TraceMetrics};
 use crate::pipeline::{
     Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
-    trace_view,
+    compare_trace, trace_only,
 };
 use crate::{EvalError, write_atomic};
 
@@ -74,6 +75,11 @@ pub struct EvalConfig {
     pub scenes_dir: Option<PathBuf>,
     /// The scenes.
     pub scenes: Vec<SceneConfig>,
+    /// After tracing, each camera's reference is refined until its noise is at most this share
+    /// of the smallest tone-mapped MSE traced against it ([`EvalView::refine`]).
+    pub reference_noise_fraction: f64,
+    /// The most shading samples per reference hit while refining.
+    pub reference_max_samples: u32,
 }
 
 /// One scene of the sweep.
@@ -124,6 +130,8 @@ impl Default for EvalConfig {
             failure_suite: true,
             scenes_dir: None,
             scenes: Vec::new(),
+            reference_noise_fraction: 0.05,
+            reference_max_samples: 1024,
         }
     }
 }
@@ -634,11 +642,9 @@ pub fn run_sweep(
             };
             let settings = config.view;
             log(&format!("{} / {}: reference", scene.name(), camera.name));
-            let view = EvalView::render(&scene, camera, settings, &|_, _| {})?;
-            reference_seconds.insert(
-                format!("{}/{}", scene.name(), view.camera.name),
-                view.seconds,
-            );
+            let mut view = EvalView::render(&scene, camera, settings, &|_, _| {})?;
+            // Traced first; compared once the reference is refined against the traces.
+            let mut pending = Vec::new();
             let rays = view.trace_rays();
             for spec in &specs {
                 log(&format!(
@@ -684,7 +690,7 @@ pub fn run_sweep(
                 let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
                 for &selection in &selections {
                     for &tracer in &tracers {
-                        let Some((metrics, _)) = trace_view(
+                        let Some(traced) = trace_only(
                             &mut device,
                             &baked,
                             &index,
@@ -696,6 +702,9 @@ pub fn run_sweep(
                         else {
                             continue;
                         };
+                        // Compared now for the record's shape; compared again below.
+                        let (metrics, _) =
+                            compare_trace(Footprints::of(&baked), &view, &traced, None)?;
                         let mb = |bytes: u64| bytes as f64 / 1e6;
                         let selection_mb = mb(selection.bytes(&index));
                         records.push(SweepRecord {
@@ -715,9 +724,41 @@ pub fn run_sweep(
                             total_mb: mb(memory.distance_bytes + memory.other_bytes) + selection_mb,
                             trace: metrics,
                         });
+                        pending.push((
+                            records.len() - 1,
+                            traced,
+                            baked.resolution(),
+                            baked.positions().to_vec(),
+                        ));
                     }
                 }
             }
+            let images: Vec<&Image> = pending.iter().map(|p| &p.1.image).collect();
+            let noise = view.refine(
+                &scene,
+                &images,
+                config.reference_noise_fraction,
+                config.reference_max_samples,
+                &|_, _| {},
+            )?;
+            log(&format!(
+                "{} / {}: reference {} samples per hit, noise {:.2e}",
+                scene.name(),
+                view.camera.name,
+                noise.samples,
+                noise.noise
+            ));
+            for (record, traced, resolution, positions) in &pending {
+                let footprints = Footprints {
+                    resolution: *resolution,
+                    positions,
+                };
+                records[*record].trace = compare_trace(footprints, &view, traced, None)?.0;
+            }
+            reference_seconds.insert(
+                format!("{}/{}", scene.name(), view.camera.name),
+                view.seconds,
+            );
         }
     }
     let failures = if config.failure_suite {
@@ -769,13 +810,13 @@ pub fn run_sweep(
 
 fn to_csv(records: &[SweepRecord]) -> String {
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6}",
             r.scene,
             r.camera,
             r.placement,
@@ -807,7 +848,12 @@ fn to_csv(records: &[SweepRecord]) -> String {
             t.mse,
             t.relative_mse,
             t.psnr,
-            t.mse_tonemapped
+            t.mse_tonemapped,
+            t.reference_noise,
+            // Not measured in the sweep (one bake per placement; the manifest records no
+            // estimate): an empty cell, never a made-up figure.
+            t.bake_noise.map_or(String::new(), |n| format!("{n:.6e}")),
+            t.flip
         );
     }
     text
@@ -937,6 +983,18 @@ fn write_charts(
             spec.y_log = true;
             spec.pareto_front = pareto;
             spec.series = series;
+            // The noise floor beside the errors: the noisiest reference of the scene's
+            // cameras (the bake's noise is not measured in the sweep).
+            let floor = records
+                .iter()
+                .map(|r| r.trace.reference_noise)
+                .fold(0.0, f64::max);
+            if floor > 0.0 {
+                spec.floors.push(crate::chart::Floor {
+                    name: format!("reference noise floor ({floor:.1e})"),
+                    y: floor,
+                });
+            }
             let png = out.join(format!("{stem}_{}.png", slug(scene)));
             let svg = out.join(format!("{stem}_{}.svg", slug(scene)));
             match write_chart(&spec, &png, &svg) {
@@ -1102,13 +1160,16 @@ fn report_markdown(report: &SweepReport) -> String {
     );
     let _ = writeln!(
         text,
-        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE | MSE (tone-mapped) | status agreement |"
+        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE | MSE (tone-mapped) | reference noise | bake noise | FLIP | status agreement |"
     );
-    let _ = writeln!(text, "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        text,
+        "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for r in &report.records {
         let _ = writeln!(
             text,
-            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} | {:.3e} | {:.1} % |",
+            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} | {:.3e} | {:.1e} | {} | {:.4} | {:.1} % |",
             r.scene,
             r.probes,
             r.placement,
@@ -1119,6 +1180,11 @@ fn report_markdown(report: &SweepReport) -> String {
             r.trace.probes_per_ray,
             r.trace.mse,
             r.trace.mse_tonemapped,
+            r.trace.reference_noise,
+            r.trace
+                .bake_noise
+                .map_or("not measured".to_owned(), |n| format!("{n:.1e}")),
+            r.trace.flip,
             100.0 * r.trace.status_agreement
         );
     }

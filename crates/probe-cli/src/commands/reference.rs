@@ -5,7 +5,8 @@ use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
 use crate::spec::{SunArgs, camera, open_scene, reflection};
-use probe_capture::{Component, RenderSettings, render};
+use probe_capture::{Component, RenderSettings};
+use probe_eval::convergence::{NoiseTarget, render_converged};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -48,9 +49,18 @@ pub struct Args {
     /// A camera of the scene by name, `default`, or a pose `px,py,pz:tx,ty,tz[:yfov_degrees]`.
     #[arg(long, default_value = "default")]
     pub camera: String,
-    /// Samples per pixel.
+    /// Samples per pixel, rendered as two independent halves of half as many (which give the
+    /// noise estimate reported); with `--noise`, the first round's.
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
+    /// Render progressively until the noise estimate (tone-mapped x/(1+x) MSE between the two
+    /// half-sample images, over 4: the variance of the full-sample mean) is at most this, e.g.
+    /// `1e-5`, doubling the samples each round from `--spp`, up to `--max-spp`.
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// The sample cap of `--noise`.
+    #[arg(long, default_value_t = 4096)]
+    pub max_spp: u32,
     /// Which component to render.
     #[arg(long, value_enum, default_value_t = ComponentArg::Glossy1)]
     pub component: ComponentArg,
@@ -88,7 +98,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let scene = open_scene(&args.scene)?;
     let camera = camera(&scene, &args.camera)?;
     let mut settings = RenderSettings::new(args.width, args.height);
-    settings.samples_per_pixel = args.spp;
+    settings.samples_per_pixel = args.spp.div_ceil(2);
     settings.seed = args.seed;
     settings.environment = args.sun.environment(&scene)?;
     let refuse = |parameter: &'static str, value: String| CliError::InvalidArgument {
@@ -132,9 +142,16 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         progress.set_length(total as u64);
         progress.set_position(done as u64);
     };
-    let image = render(&scene, &camera, &settings, &on_progress);
+    let target = match args.noise {
+        Some(noise) => NoiseTarget::Noise {
+            noise,
+            max_samples: args.max_spp,
+        },
+        None => NoiseTarget::Samples(args.spp),
+    };
+    let rendered = render_converged(&scene, &camera, &settings, target, &on_progress);
     progress.finish_and_clear();
-    let image = image?;
+    let (image, noise) = rendered?;
     let seconds = start.elapsed().as_secs_f64();
     image.save_exr(&args.out)?;
     if let Some(png) = &args.png {
@@ -150,7 +167,11 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             "bounces": bounces,
             "width": args.width,
             "height": args.height,
-            "samples_per_pixel": args.spp,
+            "samples_per_pixel": noise.samples,
+            "passes": noise.passes,
+            "noise": noise.noise,
+            "noise_target": noise.target,
+            "converged": noise.converged,
             "seed": args.seed,
             "seconds": seconds,
             "mean_radiance": [mean.x, mean.y, mean.z],
@@ -158,15 +179,24 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             "png": args.png.as_ref().map(|p| p.display().to_string()),
         }),
         text: format!(
-            "rendered {} ({} bounces) of {} from camera {} at {}×{}, {} spp in {:.2} s; mean radiance [{:.4} {:.4} {:.4}]; wrote {}\n",
+            "rendered {} ({} bounces) of {} from camera {} at {}×{}, {} spp in {:.2} s, noise {:.2e}{}; mean radiance [{:.4} {:.4} {:.4}]; wrote {}\n",
             component_name(args.component),
             bounces,
             scene.name(),
             camera.name,
             args.width,
             args.height,
-            args.spp,
+            noise.samples,
             seconds,
+            noise.noise,
+            match noise.target {
+                Some(t) if noise.converged => format!(" (target {t:.2e}: met)"),
+                Some(t) => format!(
+                    " (target {t:.2e}: not met within --max-spp {})",
+                    args.max_spp
+                ),
+                None => String::new(),
+            },
             mean.x,
             mean.y,
             mean.z,
@@ -206,6 +236,8 @@ mod tests {
             camera: "default".into(),
             // Enough samples that one or two extra bounces visibly outweigh the noise.
             spp: 16,
+            noise: None,
+            max_spp: 64,
             component,
             width: 16,
             height: 16,
@@ -253,5 +285,55 @@ mod tests {
         let glossy_0 = image(ComponentArg::Glossy1, Some(0), "glossy0.exr");
         let glossy_1 = image(ComponentArg::Glossy1, None, "glossy1.exr");
         assert!(glossy_1.mean().x > glossy_0.mean().x);
+    }
+}
+
+#[cfg(test)]
+mod noise_tests {
+    use super::*;
+    use crate::spec::SunArgs;
+
+    fn args(noise: Option<f64>, out: PathBuf) -> Args {
+        Args {
+            scene: "builtin:cornell".into(),
+            camera: "default".into(),
+            spp: 2,
+            noise,
+            max_spp: 16,
+            component: ComponentArg::Direct,
+            width: 8,
+            height: 8,
+            reflection: None,
+            bounces: None,
+            seed: 0,
+            sun: SunArgs {
+                sun_direction: None,
+                sun_illuminance: None,
+            },
+            out,
+            png: None,
+        }
+    }
+
+    /// `--noise` acts: a loose target stops after the first round, an unreachable one runs to
+    /// `--max-spp` and says so; both record the samples used and the noise reached.
+    #[test]
+    fn noise_target_refines_until_met_or_capped() {
+        let dir = tempfile::tempdir().unwrap();
+        let loose = run(&args(Some(1.0), dir.path().join("loose.exr")))
+            .unwrap()
+            .json();
+        assert_eq!(loose["samples_per_pixel"], 2);
+        assert_eq!(loose["converged"], true);
+        let tight = run(&args(Some(1e-30), dir.path().join("tight.exr")))
+            .unwrap()
+            .json();
+        assert_eq!(tight["samples_per_pixel"], 16);
+        assert_eq!(tight["converged"], false);
+        assert!(tight["noise"].as_f64().unwrap() < loose["noise"].as_f64().unwrap());
+        assert!(matches!(
+            run(&args(Some(-1.0), dir.path().join("bad.exr"))),
+            Err(CliError::Eval(_))
+        ));
     }
 }
