@@ -432,7 +432,7 @@ fn flip_rgb8(image: &Image) -> Vec<u8> {
 /// error (0 = indistinguishable, 1 = most different), row by row, and its mean.
 ///
 /// # Errors
-/// [`EvalError::Image`] when the sizes differ.
+/// [`crate::EvalError::Image`] when the sizes differ.
 pub fn flip(image: &Image, reference: &Image) -> Result<(Vec<f32>, f64), crate::EvalError> {
     // Image::mse checks the sizes and the pixel count.
     image.mse(reference)?;
