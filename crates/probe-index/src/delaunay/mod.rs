@@ -453,7 +453,12 @@ impl Tetrahedralization {
                 }
                 let n = record.neighbours[i];
                 if n == NO_NEIGHBOUR {
-                    return Ok(self.outside(p, t, i, visited.len() as u32));
+                    // The rows steer; only the exact test says `p` has left the hull (a hull
+                    // sliver's rows can put an inside point beyond its open face).
+                    if self.is_beyond(record, p, i) {
+                        return Ok(self.outside(p, t, i, visited.len() as u32));
+                    }
+                    continue;
                 }
                 if !visited.contains(n) {
                     next = Some((i, n));
@@ -544,12 +549,16 @@ impl Tetrahedralization {
         let q = p.as_dvec3().to_array();
         let coordinates = self.exact_barycentric(record, p);
         (0..4)
-            .filter(|&i| {
-                let mut w = corners;
-                w[i] = q;
-                orient(&w[0], &w[1], &w[2], &w[3]) < 0
-            })
+            .filter(|&i| beyond(corners, q, i))
             .min_by(|&a, &b| coordinates[a].total_cmp(&coordinates[b]))
+    }
+
+    /// Whether `p` lies strictly beyond face `face` of `record` by the exact orientation test.
+    fn is_beyond(&self, record: &TetRecord, p: Vec3, face: usize) -> bool {
+        let corners = record
+            .vertices
+            .map(|v| self.points[v as usize].as_dvec3().to_array());
+        beyond(corners, p.as_dvec3().to_array(), face)
     }
 
     /// Barycentric coordinates of `p` from the stored rows applied to `p` minus the
@@ -907,6 +916,14 @@ fn clamp_weights(l: [f32; 4]) -> [f32; 4] {
     let c = l.map(|x| x.max(0.0));
     let s: f32 = c.iter().sum();
     if s > 0.0 { c.map(|x| x / s) } else { [0.25; 4] }
+}
+
+/// Whether `q` lies strictly beyond the face opposite corner `face` of the tetrahedron
+/// `corners` (exact: replacing that corner by `q` turns the orientation negative).
+fn beyond(corners: [[f64; 3]; 4], q: [f64; 3], face: usize) -> bool {
+    let mut w = corners;
+    w[face] = q;
+    orient(&w[0], &w[1], &w[2], &w[3]) < 0
 }
 
 /// Squared distance from `p` to triangle `abc` and the barycentric weights of the closest point
