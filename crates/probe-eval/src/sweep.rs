@@ -371,9 +371,10 @@ fn placement_specs(
     Ok(specs)
 }
 
-/// One measured point of the sweep.
+/// One measured point of the sweep (`T`: its trace's metrics; `()` while the trace waits for
+/// the refined reference).
 #[derive(Clone, Debug, Serialize)]
-pub struct SweepRecord {
+pub struct SweepRecord<T = TraceMetrics> {
     /// The scene's name.
     pub scene: String,
     /// The camera.
@@ -404,7 +405,30 @@ pub struct SweepRecord {
     pub total_mb: f64,
     /// The trace.
     #[serde(flatten)]
-    pub trace: TraceMetrics,
+    pub trace: T,
+}
+
+impl SweepRecord<()> {
+    /// The record with its trace's metrics.
+    fn with_trace(self, trace: TraceMetrics) -> SweepRecord {
+        SweepRecord {
+            scene: self.scene,
+            camera: self.camera,
+            placement: self.placement,
+            family: self.family,
+            probes: self.probes,
+            coverage: self.coverage,
+            probes_inside_geometry: self.probes_inside_geometry,
+            place_seconds: self.place_seconds,
+            bake_seconds: self.bake_seconds,
+            index_seconds: self.index_seconds,
+            distance_mb: self.distance_mb,
+            other_mb: self.other_mb,
+            selection_mb: self.selection_mb,
+            total_mb: self.total_mb,
+            trace,
+        }
+    }
 }
 
 /// The sweep's results.
@@ -702,12 +726,11 @@ pub fn run_sweep(
                         else {
                             continue;
                         };
-                        // Compared now for the record's shape; compared again below.
-                        let (metrics, _) =
-                            compare_trace(Footprints::of(&baked), &view, &traced, None)?;
                         let mb = |bytes: u64| bytes as f64 / 1e6;
                         let selection_mb = mb(selection.bytes(&index));
-                        records.push(SweepRecord {
+                        // Compared once the reference is refined against every trace: the
+                        // record is completed with its metrics then.
+                        let record = SweepRecord {
                             scene: scene.name().to_owned(),
                             camera: view.camera.name.clone(),
                             placement: spec.name.clone(),
@@ -722,10 +745,10 @@ pub fn run_sweep(
                             other_mb: mb(memory.other_bytes),
                             selection_mb,
                             total_mb: mb(memory.distance_bytes + memory.other_bytes) + selection_mb,
-                            trace: metrics,
-                        });
+                            trace: (),
+                        };
                         pending.push((
-                            records.len() - 1,
+                            record,
                             traced,
                             baked.resolution(),
                             baked.positions().to_vec(),
@@ -748,12 +771,13 @@ pub fn run_sweep(
                 noise.samples,
                 noise.noise
             ));
-            for (record, traced, resolution, positions) in &pending {
+            for (record, traced, resolution, positions) in pending {
                 let footprints = Footprints {
-                    resolution: *resolution,
-                    positions,
+                    resolution,
+                    positions: &positions,
                 };
-                records[*record].trace = compare_trace(footprints, &view, traced, None)?.0;
+                let (trace, _) = compare_trace(footprints, &view, &traced, None)?;
+                records.push(record.with_trace(trace));
             }
             reference_seconds.insert(
                 format!("{}/{}", scene.name(), view.camera.name),
