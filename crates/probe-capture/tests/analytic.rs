@@ -3,35 +3,15 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use probe_capture::{
     BakeSettings, Component, Environment, MISS_DISTANCE, RenderSettings, Rng, Shader, bake,
     capture_geometry, no_progress, render,
 };
 use probe_scene::{Camera, Light, Material, Ray, Scene, Triangle};
 
-fn triangle(positions: [Vec3; 3], material: u32) -> Triangle {
-    let n = (positions[1] - positions[0])
-        .cross(positions[2] - positions[0])
-        .normalize();
-    Triangle {
-        positions,
-        normals: [n; 3],
-        uvs: [Vec2::ZERO; 3],
-        material,
-    }
-}
-
-/// A quad `a b c d` (in order around its edge) wound so its normal points along `facing`.
-fn quad(corners: [Vec3; 4], facing: Vec3, material: u32) -> [Triangle; 2] {
-    let [a, b, c, d] = corners;
-    let (a, b, c, d) = if (b - a).cross(c - a).dot(facing) >= 0.0 {
-        (a, b, c, d)
-    } else {
-        (a, d, c, b)
-    };
-    [triangle([a, b, c], material), triangle([a, c, d], material)]
-}
+mod support;
+use support::{quad, triangle};
 
 /// A closed axis-aligned box whose faces face inward.
 fn inward_box(min: Vec3, max: Vec3, material: u32, skip_top: bool) -> Vec<Triangle> {

@@ -8,34 +8,14 @@
 
 use std::f64::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use probe_capture::{
     BakeSettings, Component, Environment, RenderSettings, Rng, Shader, bake, no_progress, render,
 };
 use probe_scene::{Camera, Material, Ray, Scene, Triangle};
 
-fn triangle(positions: [Vec3; 3], material: u32) -> Triangle {
-    let n = (positions[1] - positions[0])
-        .cross(positions[2] - positions[0])
-        .normalize();
-    Triangle {
-        positions,
-        normals: [n; 3],
-        uvs: [Vec2::ZERO; 3],
-        material,
-    }
-}
-
-/// A quad `a b c d` (in order around its edge) wound so its normal points along `facing`.
-fn quad(corners: [Vec3; 4], facing: Vec3, material: u32) -> [Triangle; 2] {
-    let [a, b, c, d] = corners;
-    let (a, b, c, d) = if (b - a).cross(c - a).dot(facing) >= 0.0 {
-        (a, b, c, d)
-    } else {
-        (a, d, c, b)
-    };
-    [triangle([a, b, c], material), triangle([a, c, d], material)]
-}
+mod support;
+use support::quad;
 
 /// A horizontal square of half-side `half` centred on `centre`, facing `facing` (±Y).
 fn horizontal_square(centre: Vec3, half: f32, facing: Vec3, material: u32) -> [Triangle; 2] {

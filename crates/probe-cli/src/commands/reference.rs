@@ -225,7 +225,7 @@ mod tests {
     use crate::spec::SunArgs;
     use probe_capture::Image;
 
-    fn args(
+    pub(super) fn args(
         component: ComponentArg,
         bounces: Option<u32>,
         reflection: Option<&str>,
@@ -291,27 +291,15 @@ mod tests {
 #[cfg(test)]
 mod noise_tests {
     use super::*;
-    use crate::spec::SunArgs;
 
     fn args(noise: Option<f64>, out: PathBuf) -> Args {
         Args {
-            scene: "builtin:cornell".into(),
-            camera: "default".into(),
             spp: 2,
             noise,
             max_spp: 16,
-            component: ComponentArg::Direct,
             width: 8,
             height: 8,
-            reflection: None,
-            bounces: None,
-            seed: 0,
-            sun: SunArgs {
-                sun_direction: None,
-                sun_illuminance: None,
-            },
-            out,
-            png: None,
+            ..tests::args(ComponentArg::Direct, None, None, out)
         }
     }
 

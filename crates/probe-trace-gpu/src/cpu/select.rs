@@ -237,13 +237,18 @@ pub(crate) fn nearest_probe(words: &[u32], start: u32, count: u32, p: Vec3) -> u
     best_probe
 }
 
+/// The selection tests' box scene, shared with `tests/selection_properties.rs`.
+#[cfg(test)]
+#[path = "../../tests/support/boxes.rs"]
+mod test_boxes;
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use bytemuck::Zeroable;
     use probe_index::{
-        NearestProbe, ProbeGrid, ProbeQuery, ProbeSelector, RayHit, SceneGeometry,
-        SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours, VoronoiSelector,
+        NearestProbe, ProbeGrid, ProbeQuery, ProbeSelector, SparseVoxelOctree, SvoOptions,
+        Tetrahedralization, VoronoiNeighbours, VoronoiSelector,
     };
 
     use crate::input::ProbeSelection;
@@ -387,75 +392,7 @@ mod tests {
         );
     }
 
-    /// Triangles of axis-aligned boxes, brute-force ray casting.
-    struct Boxes(Vec<[Vec3; 3]>);
-
-    impl Boxes {
-        fn new(boxes: &[(Vec3, Vec3)]) -> Self {
-            let mut tris = Vec::new();
-            for &(lo, hi) in boxes {
-                let c = |i: u32| {
-                    Vec3::new(
-                        if i & 1 == 0 { lo.x } else { hi.x },
-                        if i & 2 == 0 { lo.y } else { hi.y },
-                        if i & 4 == 0 { lo.z } else { hi.z },
-                    )
-                };
-                for [a, b, cc, d] in [
-                    [0, 1, 3, 2],
-                    [4, 5, 7, 6],
-                    [0, 1, 5, 4],
-                    [2, 3, 7, 6],
-                    [0, 2, 6, 4],
-                    [1, 3, 7, 5],
-                ] {
-                    tris.push([c(a), c(b), c(cc)]);
-                    tris.push([c(a), c(cc), c(d)]);
-                }
-            }
-            Self(tris)
-        }
-    }
-
-    impl SceneGeometry for Boxes {
-        fn triangle_count(&self) -> usize {
-            self.0.len()
-        }
-
-        fn triangle(&self, index: usize) -> [Vec3; 3] {
-            self.0[index]
-        }
-
-        fn closest_hit(&self, origin: Vec3, direction: Vec3, max_distance: f32) -> Option<RayHit> {
-            let mut best: Option<RayHit> = None;
-            for [a, b, c] in &self.0 {
-                let (e1, e2) = (*b - *a, *c - *a);
-                let p = direction.cross(e2);
-                let det = e1.dot(p);
-                if det.abs() < 1e-12 {
-                    continue;
-                }
-                let s = origin - *a;
-                let u = s.dot(p) / det;
-                let q = s.cross(e1);
-                let v = direction.dot(q) / det;
-                let t = e2.dot(q) / det;
-                if u >= 0.0
-                    && v >= 0.0
-                    && u + v <= 1.0
-                    && t > 0.0
-                    && t <= max_distance
-                    && best.is_none_or(|h| t < h.distance)
-                {
-                    best = Some(RayHit {
-                        distance: t,
-                        normal: e1.cross(e2).normalize(),
-                    });
-                }
-            }
-            best
-        }
-    }
+    use super::test_boxes::Boxes;
 
     #[test]
     fn octree_selection_matches_probe_index() {

@@ -733,6 +733,65 @@ impl GpuTracer {
         Ok(())
     }
 
+    /// Checks a recording call's input and results buffers and its item count, and lays out
+    /// its dispatch: the rules the trace and diffuse bindings share.
+    fn checked_io<'a>(&self, io: CallIo<'a>) -> Result<CheckedIo<'a>, TraceError> {
+        let (input_name, input, input_stride) = io.input;
+        let (results, result_stride) = io.results;
+        self.check_count(io.item, io.count, io.limit_stride)?;
+        if input == results {
+            return Err(TraceError::BadBuffer {
+                buffer: "results",
+                reason: format!(
+                    "it is the {input_name} buffer; the shader reads one and writes the other"
+                ),
+            });
+        }
+        let input = checked_binding(input_name, input, io.count, input_stride)?;
+        let results = checked_binding("results", results, io.count, result_stride)?;
+        let (workgroups, threads_per_row) = self.grid_of(io.item, io.count)?;
+        Ok(CheckedIo {
+            input,
+            results,
+            workgroups,
+            threads_per_row,
+            count: io.count,
+        })
+    }
+
+    /// A dispatch of `pass` bound to its parameter block (a small uniform buffer of its own,
+    /// so several bindings can be recorded into one encoder), the checked call buffers and
+    /// the field's buffers after them.
+    fn bound<const N: usize>(
+        &self,
+        pass: &Pass,
+        label: &'static str,
+        params: &impl Pod,
+        io: CheckedIo<'_>,
+        field: [wgpu::BufferBinding<'_>; N],
+    ) -> Bound {
+        let uniform = self
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(&format!("{label} parameters")),
+                contents: bytemuck::bytes_of(params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+        let mut entries = vec![uniform.as_entire_buffer_binding(), io.input, io.results];
+        entries.extend(field);
+        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(label),
+            layout: &pass.layout,
+            entries: &bind_entries(entries),
+        });
+        Bound {
+            pipeline: pass.pipeline.clone(),
+            bind_group,
+            workgroups: io.workgroups,
+            count: io.count,
+        }
+    }
+
     /// Binds a trace of `buffers.count` rays from `buffers.rays` into `buffers.results`
     /// through `field` with `options`: checks everything that can be checked on the CPU, writes
     /// the parameter block (its own small uniform buffer, so several bindings can be recorded
@@ -752,47 +811,29 @@ impl GpuTracer {
         self.check_owner(field.tracer)?;
         let mut params = trace_params(&field.meta, &field.selection, options)?;
         let (ray_size, record_size) = (size_of::<TraceRay>() as u64, size_of::<RayRecord>() as u64);
-        self.check_count("ray", buffers.count, ray_size.max(record_size))?;
-        if buffers.rays == buffers.results {
-            return Err(TraceError::BadBuffer {
-                buffer: "results",
-                reason: "it is the rays buffer; the shader reads one and writes the other"
-                    .to_owned(),
-            });
-        }
-        let rays = checked_binding("rays", buffers.rays, buffers.count, ray_size)?;
-        let results = checked_binding("results", buffers.results, buffers.count, record_size)?;
-        let (workgroups, row) = self.grid_of("ray", buffers.count)?;
+        let io = self.checked_io(CallIo {
+            item: "ray",
+            count: buffers.count,
+            limit_stride: ray_size.max(record_size),
+            input: ("rays", buffers.rays, ray_size),
+            results: (buffers.results, record_size),
+        })?;
         params.ray_count = buffers.count;
-        params.threads_per_row = row;
-        let uniform = self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe trace parameters"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("probe trace"),
-            layout: &self.trace_pass.layout,
-            entries: &bind_entries([
-                uniform.as_entire_buffer_binding(),
-                rays,
-                results,
-                field.positions.as_entire_buffer_binding(),
-                field.geometry.as_entire_buffer_binding(),
-                field.pyramid.as_entire_buffer_binding(),
-                field.radiance.as_entire_buffer_binding(),
-                field.words.as_entire_buffer_binding(),
-            ]),
-        });
+        params.threads_per_row = io.threads_per_row;
         Ok(TraceBinding {
-            bound: Bound {
-                pipeline: self.trace_pass.pipeline.clone(),
-                bind_group,
-                workgroups,
-                count: buffers.count,
-            },
+            bound: self.bound(
+                &self.trace_pass,
+                "probe trace",
+                &params,
+                io,
+                [
+                    field.positions.as_entire_buffer_binding(),
+                    field.geometry.as_entire_buffer_binding(),
+                    field.pyramid.as_entire_buffer_binding(),
+                    field.radiance.as_entire_buffer_binding(),
+                    field.words.as_entire_buffer_binding(),
+                ],
+            ),
         })
     }
 
@@ -829,46 +870,28 @@ impl GpuTracer {
         self.check_owner(irradiance.tracer)?;
         let mut params = diffuse_params(&irradiance.meta, options)?;
         let point_size = size_of::<ShadingPoint>() as u64;
-        self.check_count("shading point", buffers.count, point_size)?;
-        if buffers.points == buffers.results {
-            return Err(TraceError::BadBuffer {
-                buffer: "results",
-                reason: "it is the points buffer; the shader reads one and writes the other"
-                    .to_owned(),
-            });
-        }
-        let points = checked_binding("points", buffers.points, buffers.count, point_size)?;
-        let results = checked_binding("results", buffers.results, buffers.count, 16)?;
-        let (workgroups, row) = self.grid_of("shading point", buffers.count)?;
+        let io = self.checked_io(CallIo {
+            item: "shading point",
+            count: buffers.count,
+            limit_stride: point_size,
+            input: ("points", buffers.points, point_size),
+            results: (buffers.results, 16),
+        })?;
         params.point_count = buffers.count;
-        params.threads_per_row = row;
-        let uniform = self
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("probe diffuse parameters"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-        let bind_group = self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("probe diffuse"),
-            layout: &self.diffuse_pass.layout,
-            entries: &bind_entries([
-                uniform.as_entire_buffer_binding(),
-                points,
-                results,
-                irradiance.positions.as_entire_buffer_binding(),
-                irradiance.irradiance.as_entire_buffer_binding(),
-                irradiance.moments.as_entire_buffer_binding(),
-                irradiance.words.as_entire_buffer_binding(),
-            ]),
-        });
+        params.threads_per_row = io.threads_per_row;
         Ok(DiffuseBinding {
-            bound: Bound {
-                pipeline: self.diffuse_pass.pipeline.clone(),
-                bind_group,
-                workgroups,
-                count: buffers.count,
-            },
+            bound: self.bound(
+                &self.diffuse_pass,
+                "probe diffuse",
+                &params,
+                io,
+                [
+                    irradiance.positions.as_entire_buffer_binding(),
+                    irradiance.irradiance.as_entire_buffer_binding(),
+                    irradiance.moments.as_entire_buffer_binding(),
+                    irradiance.words.as_entire_buffer_binding(),
+                ],
+            ),
         })
     }
 
@@ -1134,18 +1157,37 @@ impl Tracer for GpuTracer {
 }
 
 /// Bind-group entries for buffer bindings in order from binding 0.
-fn bind_entries<'a, const N: usize>(
-    buffers: [wgpu::BufferBinding<'a>; N],
-) -> [wgpu::BindGroupEntry<'a>; N] {
-    let mut binding = 0;
-    buffers.map(|b| {
-        let entry = wgpu::BindGroupEntry {
+fn bind_entries(buffers: Vec<wgpu::BufferBinding<'_>>) -> Vec<wgpu::BindGroupEntry<'_>> {
+    (0..)
+        .zip(buffers)
+        .map(|(binding, buffer)| wgpu::BindGroupEntry {
             binding,
-            resource: wgpu::BindingResource::Buffer(b),
-        };
-        binding += 1;
-        entry
-    })
+            resource: wgpu::BindingResource::Buffer(buffer),
+        })
+        .collect()
+}
+
+/// A recording call's buffers, before they are checked.
+struct CallIo<'a> {
+    /// What one item is, for errors (`ray`, `shading point`).
+    item: &'static str,
+    /// Items in the call.
+    count: u32,
+    /// Bytes per item counted against the device's binding limit.
+    limit_stride: u64,
+    /// The input buffer: its name, the buffer and bytes per item.
+    input: (&'static str, &'a wgpu::Buffer, u64),
+    /// The results buffer and bytes per result.
+    results: (&'a wgpu::Buffer, u64),
+}
+
+/// A recording call's buffers, checked, and its dispatch.
+struct CheckedIo<'a> {
+    input: wgpu::BufferBinding<'a>,
+    results: wgpu::BufferBinding<'a>,
+    workgroups: [u32; 3],
+    threads_per_row: u32,
+    count: u32,
 }
 
 /// Makes sure `io` holds at least `items` items (grown geometrically).
