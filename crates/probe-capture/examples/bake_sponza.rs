@@ -6,8 +6,9 @@
 //! ```
 //!
 //! Defaults: 64 probes (a 4×4×4 grid over the atrium, as probe-scene's `closest_hit`
-//! benchmark; other counts use an `n×n×n`-ish grid over the same box), 256², 4 samples per
-//! texel, 1 bounce. Prints the time of each phase (geometry pass, radiance pass, derived
+//! benchmark; other counts use an `n×n×n`-ish grid over the same box), 256², adaptive
+//! sampling with the library's defaults (`SAMPLES` = 0; any other value is a fixed count per
+//! texel), 1 bounce. Prints the time of each phase (geometry pass, radiance pass, derived
 //! maps, read off the progress callback), the total, the rays cast and, with `SAVE_DIR`, the
 //! time to save the bake there (PNG previews of probe 0 go to `SAVE_DIR-previews`). Loading
 //! the scene and building its BVH are timed apart.
@@ -16,7 +17,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::Vec3;
-use probe_capture::{BakeSettings, bake};
+use probe_capture::{BakeSettings, Sampling, bake};
 use probe_scene::Scene;
 
 fn grid(count: usize) -> Vec<Vec3> {
@@ -50,7 +51,10 @@ fn main() {
     let probes = arg(0, 64) as usize;
     let settings = BakeSettings {
         resolution: arg(1, 256),
-        samples_per_texel: arg(2, 4),
+        sampling: match arg(2, 0) {
+            0 => Sampling::default(),
+            fixed => Sampling::fixed(fixed),
+        },
         bounces: arg(3, 1),
         ..Default::default()
     };
@@ -74,7 +78,7 @@ fn main() {
         if done >= rows && marks[0].is_none() {
             marks[0] = Some(t);
         }
-        if done >= 2 * rows && marks[1].is_none() {
+        if done >= 3 * rows && marks[1].is_none() {
             marks[1] = Some(t);
         }
     };
@@ -85,11 +89,13 @@ fn main() {
         .expect("marks")
         .map(|m| m.unwrap_or(total));
     let texels = positions.len() * n * n;
+    let samples: u64 = baked.sampling().iter().map(|p| p.samples).sum();
     println!(
-        "{} probes × {}² × {} samples/texel, {} bounce(s), {} threads",
+        "{} probes × {}² × {:.2} samples/texel ({:?}), {} bounce(s), {} threads",
         positions.len(),
         settings.resolution,
-        settings.samples_per_texel,
+        baked.mean_samples_per_texel(),
+        settings.sampling,
         settings.bounces,
         rayon::current_num_threads()
     );
@@ -100,9 +106,12 @@ fn main() {
     println!(
         "  radiance pass {:.2} s ({} radiance samples, {:.2} M samples/s)",
         radiance - geometry,
-        texels * settings.samples_per_texel as usize,
-        (texels * settings.samples_per_texel as usize) as f64 / (radiance - geometry) / 1e6
+        samples,
+        samples as f64 / (radiance - geometry) / 1e6
     );
+    if let Some(noise) = baked.noise() {
+        println!("  noise (tone-mapped variance per texel, from the replicates) {noise:.3e}");
+    }
     println!("  derived maps  {:.2} s", total - radiance);
     println!("  total bake    {total:.2} s");
     let stats = baked.stats();

@@ -10,12 +10,14 @@ use probe_scene::Scene;
 use serde::{Deserialize, Serialize};
 
 use crate::atomic;
-use crate::bake::{BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, ProbeBake, ProbeStats};
+use crate::bake::{
+    BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, ProbeBake, ProbeSampling, ProbeStats,
+};
 use crate::environment::Environment;
 use crate::exr_io::{self, ExrLayer, ExrRead};
 
 /// The bake format version this crate writes and the newest it reads.
-pub const BAKE_FORMAT_VERSION: u32 = 1;
+pub const BAKE_FORMAT_VERSION: u32 = 2;
 
 /// The `format` field of every bake manifest.
 const FORMAT_NAME: &str = "probe-capture bake";
@@ -107,6 +109,21 @@ pub enum BakeLoadError {
         path.display()
     )]
     NewerFormat {
+        /// The manifest's path.
+        path: PathBuf,
+        /// The version in the manifest.
+        found: u64,
+        /// [`BAKE_FORMAT_VERSION`].
+        supported: u32,
+    },
+    /// The bake was written in an older format than this crate reads (version 1 has no
+    /// per-probe noise estimates). Fix: re-bake with this version.
+    #[error(
+        "{}: bake format version {found} is older than the supported version {supported} \
+         (it records no noise estimates): re-bake it with this version",
+        path.display()
+    )]
+    OlderFormat {
         /// The manifest's path.
         path: PathBuf,
         /// The version in the manifest.
@@ -215,6 +232,9 @@ impl From<&ManifestEnvironment> for Environment {
 struct ManifestSettings {
     resolution: u32,
     samples_per_texel: u32,
+    max_samples_per_texel: u32,
+    /// Tone-mapped variance per texel (`null`: fixed sampling).
+    noise_target: Option<f32>,
     bounces: u32,
     seed: u64,
     /// The environment given in the settings (`null`: chosen for the scene).
@@ -243,6 +263,16 @@ struct ManifestStats {
     miss_share: f32,
     mean_distance: f32,
     min_distance: f32,
+}
+
+/// Per probe: the radiance samples taken and the noise they leave.
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+struct ManifestSampling {
+    samples: u64,
+    /// Mean over texels of the variance of the texel's value, tone-mapped (`null` with fewer
+    /// than two samples per texel).
+    noise: Option<f32>,
+    capped_share: f32,
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -278,6 +308,7 @@ struct Manifest {
     pyramid_levels: u32,
     files: Vec<ManifestFile>,
     stats: Vec<ManifestStats>,
+    sampling: Vec<ManifestSampling>,
 }
 
 /// Splits `count` items of `K` floats into `K` channels.
@@ -493,7 +524,9 @@ impl ProbeBake {
             positions: self.positions.iter().map(|p| p.to_array()).collect(),
             settings: ManifestSettings {
                 resolution: s.resolution,
-                samples_per_texel: s.samples_per_texel,
+                samples_per_texel: s.sampling.samples_per_texel,
+                max_samples_per_texel: s.sampling.max_samples_per_texel,
+                noise_target: s.sampling.noise_target,
                 bounces: s.bounces,
                 seed: s.seed,
                 environment: s.environment.as_ref().map(ManifestEnvironment::from),
@@ -533,6 +566,15 @@ impl ProbeBake {
                     min_distance: s.min_distance,
                 })
                 .collect(),
+            sampling: self
+                .sampling
+                .iter()
+                .map(|p| ManifestSampling {
+                    samples: p.samples,
+                    noise: p.noise,
+                    capped_share: p.capped_share,
+                })
+                .collect(),
         }
     }
 
@@ -542,6 +584,7 @@ impl ProbeBake {
     ///
     /// # Errors
     /// [`BakeLoadError::NewerFormat`] for a bake from a newer format version,
+    /// [`BakeLoadError::OlderFormat`] for one from an older version,
     /// [`BakeLoadError::SceneMismatch`] for another scene, and the other variants of
     /// [`BakeLoadError`] for missing, damaged or inconsistent files.
     pub fn load(dir: impl AsRef<Path>, scene: Option<&Scene>) -> Result<ProbeBake, BakeLoadError> {
@@ -572,7 +615,14 @@ impl ProbeBake {
                     supported: BAKE_FORMAT_VERSION,
                 });
             }
-            Some(v) if v >= 1 => {}
+            Some(v) if v == u64::from(BAKE_FORMAT_VERSION) => {}
+            Some(v) if v >= 1 => {
+                return Err(BakeLoadError::OlderFormat {
+                    path: manifest_path,
+                    found: v,
+                    supported: BAKE_FORMAT_VERSION,
+                });
+            }
             _ => {
                 return Err(BakeLoadError::InvalidManifest {
                     path: manifest_path,
@@ -724,6 +774,15 @@ impl ProbeBake {
                     min_distance: s.min_distance,
                 })
                 .collect(),
+            sampling: manifest
+                .sampling
+                .iter()
+                .map(|s| ProbeSampling {
+                    samples: s.samples,
+                    noise: s.noise,
+                    capped_share: s.capped_share,
+                })
+                .collect(),
         })
     }
 }
@@ -738,7 +797,11 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
     let s = &m.settings;
     let settings = BakeSettings {
         resolution: s.resolution,
-        samples_per_texel: s.samples_per_texel,
+        sampling: crate::bake::Sampling {
+            samples_per_texel: s.samples_per_texel,
+            max_samples_per_texel: s.max_samples_per_texel,
+            noise_target: s.noise_target,
+        },
         bounces: s.bounces,
         seed: s.seed,
         environment: s.environment.as_ref().map(Environment::from),
@@ -766,12 +829,24 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
     if m.probe_count == 0 {
         return Err("`probe_count` is 0".into());
     }
-    if m.positions.len() != m.probe_count || m.stats.len() != m.probe_count {
+    if m.positions.len() != m.probe_count
+        || m.stats.len() != m.probe_count
+        || m.sampling.len() != m.probe_count
+    {
         return Err(format!(
-            "`probe_count` is {} but there are {} positions and {} stats",
+            "`probe_count` is {} but there are {} positions, {} stats and {} sampling records",
             m.probe_count,
             m.positions.len(),
-            m.stats.len()
+            m.stats.len(),
+            m.sampling.len()
+        ));
+    }
+    if let Some(p) = m.sampling.iter().position(|p| {
+        p.noise.is_some_and(|v| !(v.is_finite() && v >= 0.0))
+            || !(0.0..=1.0).contains(&p.capped_share)
+    }) {
+        return Err(format!(
+            "probe {p}'s sampling record has a noise that is not a finite non-negative number or a capped share outside 0..1"
         ));
     }
     if m.positions.iter().flatten().any(|c| !c.is_finite()) {

@@ -22,14 +22,16 @@
 //! way" holds by construction.
 //!
 //! ```
-//! use probe_capture::{BakeSettings, Component, ProbeBake, RenderSettings, bake, no_progress, render};
+//! use probe_capture::{
+//!     BakeSettings, Component, ProbeBake, RenderSettings, Sampling, bake, no_progress, render,
+//! };
 //! use probe_scene::{Scene, glam::Vec3};
 //!
 //! let scene = Scene::builtin("cornell")?;
 //! let centre = Vec3::new(0.278, 0.27, 0.28);
 //!
 //! // Two probes at 32² (padded 34²), 2 samples per texel, direct light plus one bounce.
-//! let settings = BakeSettings { resolution: 32, samples_per_texel: 2, ..Default::default() };
+//! let settings = BakeSettings { resolution: 32, sampling: Sampling::fixed(2), ..Default::default() };
 //! let probes = bake(&scene, &[centre, centre + Vec3::Y * 0.1], &settings, &no_progress)?;
 //! assert_eq!(probes.distances().len(), 2 * 34 * 34);
 //! // Straight down from the first probe, the floor is 0.27 m away.
@@ -58,8 +60,14 @@
 //! - **Rays go through the octahedral texels themselves**, not through a cube map that is
 //!   then resampled (as seeds 001 and 003 do with a rasteriser): a ray tracer can, and it
 //!   avoids the resampling blur. Distance and normal come from the texel-centre ray, the
-//!   value a bilinear reader interpolates between; radiance is the mean over
-//!   `samples_per_texel` stratified jittered rays across the texel's octahedral square.
+//!   value a bilinear reader interpolates between; radiance is the mean over rays across
+//!   the texel's octahedral square.
+//! - **Converged by default** ([`Sampling`]): every random decision of a texel's samples is
+//!   a dimension of an Owen-scrambled Sobol sequence; the samples are split into
+//!   independently scrambled replicates whose spread estimates each texel's noise; a second
+//!   pass adds samples where that noise is above the target. Emitters are reached by light
+//!   sampling and bounce rays with multiple importance sampling. The bake records per probe
+//!   the samples taken and the noise left ([`ProbeSampling`]).
 //! - **Misses** store the distance [`MISS_DISTANCE`] (1e9 m, finite so GPU filtering stays
 //!   finite), a zero normal and the sky's radiance.
 //! - **Lambertian surfaces** with the base colour as albedo (the probes' assumption); back
@@ -67,8 +75,8 @@
 //! - **Default light**: a scene with no punctual light and no emissive material gets
 //!   [`Environment::DEFAULT_DAYLIGHT`] (a sun and a gradient sky); others get a black sky
 //!   unless an environment is given.
-//! - **Determinism**: every random number comes from a PCG32 stream keyed by the seed and
-//!   the work item ([`Rng::for_key`]); sums over texels run in a fixed order. Same inputs and
+//! - **Determinism**: every random number comes from a stream keyed by the seed and the
+//!   work item ([`SobolSampler::for_key`] in bakes, [`Rng::for_key`] in references); sums over texels run in a fixed order. Same inputs and
 //!   seed give the same bytes on any number of threads.
 //! - **Parallelism**: rayon over probes and texel rows (bake) and image rows or ray blocks
 //!   (render), behind the default `parallel` feature; without it the same work runs on the
@@ -91,8 +99,9 @@ mod rng;
 mod shading;
 
 pub use bake::{
-    BakeError, BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, ProbeBake, ProbeGeometry,
-    ProbeStats, Progress, bake, capture_geometry, no_progress,
+    BakeError, BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, NOISE_REPLICATES, ProbeBake,
+    ProbeGeometry, ProbeSampling, ProbeStats, Progress, Sampling, bake, capture_geometry,
+    no_progress,
 };
 pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FILE};
 pub use environment::Environment;
@@ -103,5 +112,5 @@ pub use evaluation::{
 pub use image::{Image, ImageError};
 pub use preview::{PreviewError, PreviewPaths};
 pub use render::{Component, RenderError, RenderSettings, find_camera, render};
-pub use rng::Rng;
+pub use rng::{Rng, Sampler, SobolSampler};
 pub use shading::{RUSSIAN_ROULETTE_BOUNCES, Shader, ShaderError};

@@ -6,7 +6,7 @@ use glam::Vec3;
 use probe_scene::{Hit, Light, Ray, Scene};
 
 use crate::environment::Environment;
-use crate::rng::{Rng, cosine_hemisphere, uniform_triangle};
+use crate::rng::{Sampler, cosine_hemisphere, uniform_triangle};
 
 /// Bounces after which paths are continued by Russian roulette (with probability equal to the
 /// largest channel of the path throughput, at most 1). Paths of up to this many bounces are
@@ -37,6 +37,9 @@ struct Emitters {
     cdf: Vec<f32>,
     /// Probability of choosing each emitter.
     pmf: Vec<f32>,
+    /// Per scene triangle, its position in the table (`u32::MAX` for non-emitters), for the
+    /// light-sampling pdf of a bounce ray that hits an emitter.
+    slot_of_triangle: Vec<u32>,
 }
 
 impl Emitters {
@@ -44,6 +47,7 @@ impl Emitters {
         let materials = scene.materials();
         let mut triangles = Vec::new();
         let mut powers = Vec::new();
+        let mut slot_of_triangle = Vec::new();
         for (index, triangle) in scene.triangles().iter().enumerate() {
             let material = &materials[triangle.material as usize];
             if !material.is_emissive() {
@@ -53,6 +57,10 @@ impl Emitters {
             let sides = if material.double_sided { 2.0 } else { 1.0 };
             let power = f64::from(area) * f64::from(material.emissive.element_sum()) * sides;
             if power > 0.0 && power.is_finite() {
+                if slot_of_triangle.is_empty() {
+                    slot_of_triangle = vec![u32::MAX; scene.triangles().len()];
+                }
+                slot_of_triangle[index] = triangles.len() as u32;
                 triangles.push(index as u32);
                 powers.push(power);
             }
@@ -72,7 +80,27 @@ impl Emitters {
             triangles,
             cdf,
             pmf,
+            slot_of_triangle,
         }
+    }
+
+    /// The solid-angle pdf with which light sampling from `surface` picks the point `hit` on
+    /// an emissive triangle, seen at squared distance `distance_squared` and cosine
+    /// `light_cosine`; `None` for a triangle that is not in the table.
+    #[inline]
+    fn solid_angle_pdf(
+        &self,
+        scene: &Scene,
+        triangle: u32,
+        distance_squared: f32,
+        light_cosine: f32,
+    ) -> Option<f32> {
+        let slot = *self.slot_of_triangle.get(triangle as usize)?;
+        if slot == u32::MAX || light_cosine <= 0.0 {
+            return None;
+        }
+        let area = scene.triangles()[triangle as usize].area();
+        Some(self.pmf[slot as usize] / area * distance_squared / light_cosine)
     }
 
     /// Picks an emitter for a uniform `u`: its position in the table.
@@ -140,9 +168,15 @@ impl Surface {
 ///   one emissive triangle sampled as an area light (chosen in proportion to its power,
 ///   a uniform point on it, one shadow ray); and the sky (see below).
 /// - **Bounces.** Each of `bounces` extra bounces continues the path in a cosine-distributed
-///   direction; where it hits a surface, that surface's direct light is added (its emission
-///   is not: emitters are counted by light sampling only). Paths longer than
-///   [`RUSSIAN_ROULETTE_BOUNCES`] continue by Russian roulette.
+///   direction; where it hits a surface, that surface's direct light is added. Paths longer
+///   than [`RUSSIAN_ROULETTE_BOUNCES`] continue by Russian roulette.
+/// - **Multiple importance sampling.** At a point that bounces further, emissive triangles
+///   are reached by both strategies, the light sample and the bounce ray (which counts the
+///   emission it hits), weighted by the power heuristic (Veach 1997), so surfaces next to a
+///   large emitter, where light sampling alone has high variance, get the bounce ray's
+///   low-variance estimate. At the last point of a path light sampling alone counts.
+///   Punctual lights and the sun are delta lights (light sampling only); the sky is reached
+///   by the cosine-distributed ray (bounce or shadow ray), its own importance sample.
 /// - **Sky.** At a point that bounces further, the bounce ray itself samples the sky (a ray
 ///   that leaves the scene adds the sky radiance); at the last point of a path one
 ///   cosine-distributed shadow ray does. A black sky costs no rays.
@@ -228,7 +262,7 @@ impl<'s> Shader<'s> {
 
     /// Radiance arriving along `ray` (origin already off any surface): the shaded closest hit
     /// or the sky, with the hit.
-    pub fn trace(&self, ray: &Ray, rng: &mut Rng) -> (Option<Hit>, Vec3) {
+    pub fn trace<S: Sampler + ?Sized>(&self, ray: &Ray, rng: &mut S) -> (Option<Hit>, Vec3) {
         match self.scene.closest_hit(ray, f32::INFINITY) {
             Some(hit) => {
                 let radiance = self.outgoing_radiance(&hit, -ray.direction, rng);
@@ -241,7 +275,12 @@ impl<'s> Shader<'s> {
     /// Radiance leaving the hit point towards the viewer (`towards_viewer`, a unit vector from
     /// the hit back along the incoming ray): emission plus direct light plus the configured
     /// bounces (see the type's documentation for the model).
-    pub fn outgoing_radiance(&self, hit: &Hit, towards_viewer: Vec3, rng: &mut Rng) -> Vec3 {
+    pub fn outgoing_radiance<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        rng: &mut S,
+    ) -> Vec3 {
         let mut radiance = self.emission(hit, towards_viewer);
         let mut throughput = Vec3::ONE;
         let mut current = *hit;
@@ -260,6 +299,7 @@ impl<'s> Shader<'s> {
             if direction.dot(surface.geometric_normal) <= 0.0 {
                 break;
             }
+            let bsdf_pdf = surface.shading_normal.dot(direction).max(0.0) / PI;
             // Cosine sampling cancels the cosine and the 1/π of the Lambertian BRDF.
             throughput *= surface.albedo;
             if bounce >= RUSSIAN_ROULETTE_BOUNCES {
@@ -272,6 +312,7 @@ impl<'s> Shader<'s> {
             let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
             match self.scene.closest_hit(&ray, f32::INFINITY) {
                 Some(next) => {
+                    radiance += throughput * self.emission_by_bounce(&next, direction, bsdf_pdf);
                     current = next;
                     towards = -direction;
                     bounce += 1;
@@ -300,6 +341,26 @@ impl<'s> Shader<'s> {
         }
     }
 
+    /// The emission a bounce ray (unit `direction`, sampled with solid-angle pdf `bsdf_pdf`)
+    /// picks up at its hit, with the power heuristic's weight against light sampling.
+    #[inline]
+    fn emission_by_bounce(&self, hit: &Hit, direction: Vec3, bsdf_pdf: f32) -> Vec3 {
+        let emitted = self.emission(hit, -direction);
+        if emitted.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let light_cosine = hit.geometric_normal.dot(direction).abs();
+        let light_pdf =
+            self.emitters
+                .solid_angle_pdf(self.scene, hit.triangle, hit.t * hit.t, light_cosine);
+        match light_pdf {
+            Some(light_pdf) => emitted * power_heuristic(bsdf_pdf, light_pdf),
+            // Not in the light table (no light sample can reach it): the bounce ray is the
+            // only strategy.
+            None => emitted,
+        }
+    }
+
     /// The surface as seen from `towards_viewer`, or `None` for the back of a single-sided
     /// material (black).
     #[inline]
@@ -319,8 +380,16 @@ impl<'s> Shader<'s> {
     }
 
     /// Reflected direct light at a surface: punctual and directional lights, the sun, one
-    /// emitter sample and, when `with_sky`, one sky shadow ray.
-    fn direct_light(&self, surface: &Surface, with_sky: bool, rng: &mut Rng) -> Vec3 {
+    /// emitter sample and, at the last point of a path (`last`), one sky shadow ray. Where
+    /// the path goes on (`!last`), the emitter sample carries its MIS weight against the
+    /// bounce ray.
+    fn direct_light<S: Sampler + ?Sized>(
+        &self,
+        surface: &Surface,
+        last: bool,
+        rng: &mut S,
+    ) -> Vec3 {
+        let with_sky = last;
         let brdf = surface.albedo * (1.0 / PI);
         // Sum of irradiance-like terms (radiance × cosine / pdf), multiplied by the BRDF once.
         let mut incident = Vec3::ZERO;
@@ -331,7 +400,7 @@ impl<'s> Shader<'s> {
             incident += self.directional(surface, towards_sun, irradiance);
         }
         if !self.emitters.triangles.is_empty() {
-            incident += self.emitter_sample(surface, rng);
+            incident += self.emitter_sample(surface, !last, rng);
         }
         let mut radiance = brdf * incident;
         if with_sky && !self.sky_is_black {
@@ -470,8 +539,14 @@ impl<'s> Shader<'s> {
         limit > 0.0 && self.scene.occluded(&ray, limit)
     }
 
-    /// One emissive-triangle sample: `Le · cos θx · cos θy / (r² · pdf_area)`.
-    fn emitter_sample(&self, surface: &Surface, rng: &mut Rng) -> Vec3 {
+    /// One emissive-triangle sample: `Le · cos θx · cos θy / (r² · pdf_area)`, times the power
+    /// heuristic's weight against the cosine-distributed bounce ray when `mis`.
+    fn emitter_sample<S: Sampler + ?Sized>(
+        &self,
+        surface: &Surface,
+        mis: bool,
+        rng: &mut S,
+    ) -> Vec3 {
         let slot = self.emitters.pick(rng.next_f32());
         let barycentrics = uniform_triangle(rng.next_vec2());
         let index = self.emitters.triangles[slot];
@@ -499,8 +574,25 @@ impl<'s> Shader<'s> {
         if self.blocked(surface, point, light_cosine) {
             return Vec3::ZERO;
         }
-        material.emissive * (cosine * light_cosine / (distance_squared * pdf_area))
+        let weight = if mis {
+            let light_pdf = pdf_area * distance_squared / light_cosine;
+            power_heuristic(light_pdf, cosine / PI)
+        } else {
+            1.0
+        };
+        material.emissive * (weight * cosine * light_cosine / (distance_squared * pdf_area))
     }
+}
+
+/// The power heuristic (β = 2) weight of a sample drawn with pdf `chosen` against another
+/// strategy with pdf `other` at the same point.
+#[inline]
+fn power_heuristic(chosen: f32, other: f32) -> f32 {
+    let (a, b) = (chosen * chosen, other * other);
+    if !a.is_finite() {
+        return 1.0;
+    }
+    if a + b > 0.0 { a / (a + b) } else { 0.0 }
 }
 
 /// Whether `hit`'s front faces `towards` (a unit direction to the viewer), and its geometric

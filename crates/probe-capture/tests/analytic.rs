@@ -5,8 +5,8 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 use probe_capture::{
-    BakeSettings, Component, Environment, MISS_DISTANCE, RenderSettings, Rng, Shader, bake,
-    capture_geometry, no_progress, render,
+    BakeSettings, Component, Environment, MISS_DISTANCE, RenderSettings, Rng, Sampling, Shader,
+    bake, capture_geometry, no_progress, render,
 };
 use probe_scene::{Camera, Light, Material, Ray, Scene, Triangle};
 
@@ -170,7 +170,7 @@ fn white_furnace() {
     // A probe bake agrees with the renderer: one bounce gives Le (1 + a + a²).
     let bake_settings = BakeSettings {
         resolution: 8,
-        samples_per_texel: 4,
+        sampling: Sampling::fixed(4),
         bounces: 1,
         ..Default::default()
     };

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use glam::Vec3;
 use probe_capture::{
     BAKE_FORMAT_VERSION, BakeError, BakeLoadError, BakeSaveError, BakeSettings, Environment,
-    MANIFEST_FILE, MISS_DISTANCE, ProbeBake, bake, no_progress,
+    MANIFEST_FILE, MISS_DISTANCE, ProbeBake, Sampling, bake, no_progress,
 };
 use probe_octa::{FineRead, MinMaxPyramid, ShL2Rgb, distance_moments, irradiance_map};
 use probe_scene::Scene;
@@ -15,7 +15,7 @@ use probe_scene::builtin::{BOXES_GRID, grid_cell_centers};
 fn small_settings() -> BakeSettings {
     BakeSettings {
         resolution: 16,
-        samples_per_texel: 2,
+        sampling: Sampling::fixed(2),
         moments_resolution: 6,
         irradiance_resolution: 4,
         pyramid_levels: 3,
@@ -135,7 +135,7 @@ fn reduced_filter_sources_change_the_filtered_maps_little() {
     let scene = cornell();
     let settings = BakeSettings {
         resolution: 64,
-        samples_per_texel: 1,
+        sampling: Sampling::fixed(1),
         moments_resolution: 14,
         irradiance_resolution: 6,
         filter_source_resolution: 64,
@@ -217,7 +217,7 @@ fn progress_reaches_the_total() {
     let settings = small_settings();
     bake(&scene, &cornell_probes(), &settings, &progress).unwrap();
     let (done, total) = *last.lock().unwrap();
-    assert_eq!(total, 2 * 3 * 16 + 3);
+    assert_eq!(total, 3 * 3 * 16 + 3);
     assert_eq!(done, total);
     assert_eq!(calls.load(Ordering::Relaxed), total);
 }
@@ -253,7 +253,7 @@ fn invalid_settings_name_the_parameter() {
     }
     assert_eq!(
         parameter(BakeSettings {
-            samples_per_texel: 0,
+            sampling: Sampling::fixed(0),
             ..small_settings()
         }),
         "samples_per_texel"
@@ -353,7 +353,7 @@ fn default_daylight_lights_a_scene_without_lights() {
         &[Vec3::new(0.0, 1.5, 0.0)],
         &BakeSettings {
             resolution: 16,
-            samples_per_texel: 1,
+            sampling: Sampling::fixed(1),
             bounces: 0,
             ..small_settings()
         },
@@ -483,6 +483,33 @@ fn load_refuses_other_scenes_newer_formats_and_damage() {
         "{error}"
     );
     assert!(error.to_string().contains("newer"), "{error}");
+
+    // An older format (version 1 recorded no noise estimates) asks for a re-bake.
+    let mut value: serde_json::Value = serde_json::from_str(&original).unwrap();
+    value["format_version"] = serde_json::json!(1);
+    std::fs::write(&manifest_path, value.to_string()).unwrap();
+    let error = ProbeBake::load(&path, Some(&scene)).unwrap_err();
+    assert!(
+        matches!(error, BakeLoadError::OlderFormat { found: 1, .. }),
+        "{error}"
+    );
+    assert!(error.to_string().contains("re-bake"), "{error}");
+
+    // A manifest without its per-probe noise records, or with a negative noise, is refused.
+    let mut value: serde_json::Value = serde_json::from_str(&original).unwrap();
+    value.as_object_mut().unwrap().remove("sampling");
+    std::fs::write(&manifest_path, value.to_string()).unwrap();
+    let error = ProbeBake::load(&path, None).unwrap_err();
+    assert!(matches!(error, BakeLoadError::Manifest { .. }), "{error}");
+    assert!(error.to_string().contains("sampling"), "{error}");
+    let mut value: serde_json::Value = serde_json::from_str(&original).unwrap();
+    value["sampling"][0]["noise"] = serde_json::json!(-1.0);
+    std::fs::write(&manifest_path, value.to_string()).unwrap();
+    let error = ProbeBake::load(&path, None).unwrap_err();
+    assert!(
+        matches!(error, BakeLoadError::InvalidManifest { .. }),
+        "{error}"
+    );
 
     // Not a bake manifest; malformed JSON; inconsistent counts.
     std::fs::write(&manifest_path, r#"{"format": "something else"}"#).unwrap();

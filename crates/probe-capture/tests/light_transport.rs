@@ -10,7 +10,8 @@ use std::f64::consts::PI;
 
 use glam::Vec3;
 use probe_capture::{
-    BakeSettings, Component, Environment, RenderSettings, Rng, Shader, bake, no_progress, render,
+    BakeSettings, Component, Environment, RenderSettings, Rng, Sampling, Shader, bake, no_progress,
+    render,
 };
 use probe_scene::{Camera, Material, Ray, Scene, Triangle};
 
@@ -311,7 +312,7 @@ fn furnace_box_bake() {
         for bounces in [0u32, 1, 3, 12] {
             let settings = BakeSettings {
                 resolution: 32,
-                samples_per_texel: 8,
+                sampling: Sampling::fixed(8),
                 bounces,
                 seed: 9,
                 ..Default::default()

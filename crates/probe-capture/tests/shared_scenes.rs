@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use probe_capture::{
-    BakeSettings, Component, Environment, ProbeBake, RenderSettings, bake, find_camera,
+    BakeSettings, Component, Environment, ProbeBake, RenderSettings, Sampling, bake, find_camera,
     no_progress, render,
 };
 use probe_scene::Scene;
@@ -41,7 +41,7 @@ fn shared_cornell_box() {
         &[centre, centre + Vec3::new(0.3, 0.4, 0.2)],
         &BakeSettings {
             resolution: 32,
-            samples_per_texel: 2,
+            sampling: Sampling::fixed(2),
             ..Default::default()
         },
         &no_progress,
@@ -90,7 +90,7 @@ fn shared_sponza_with_default_daylight() {
         &positions,
         &BakeSettings {
             resolution: 16,
-            samples_per_texel: 1,
+            sampling: Sampling::fixed(1),
             moments_resolution: 6,
             ..Default::default()
         },

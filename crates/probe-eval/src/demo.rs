@@ -20,7 +20,7 @@ use std::fmt::Write as _;
 use image::ImageEncoder as _;
 use std::path::{Path, PathBuf};
 
-use probe_capture::Image;
+use probe_capture::{Image, Sampling};
 use probe_scene::Scene;
 use serde::Serialize;
 
@@ -46,8 +46,8 @@ pub struct DemoOptions {
     pub require_gpu: bool,
     /// Probe resolution (interior texels per side).
     pub resolution: u32,
-    /// Radiance samples per texel.
-    pub samples_per_texel: u32,
+    /// How many radiance samples the bakes take per texel.
+    pub sampling: Sampling,
     /// Image side in pixels (the Cornell camera is square).
     pub image_size: u32,
     /// Gibbs iterations.
@@ -67,7 +67,7 @@ impl DemoOptions {
             out: out.into(),
             require_gpu: false,
             resolution: 128,
-            samples_per_texel: 4,
+            sampling: Sampling::default(),
             image_size: 256,
             gibbs_iterations: 30,
             reference_noise_fraction: 0.05,
@@ -89,6 +89,11 @@ pub struct DemoRow {
     pub place_seconds: f64,
     /// Seconds to bake.
     pub bake_seconds: f64,
+    /// Mean radiance samples per texel the bake took.
+    pub samples_per_texel: f64,
+    /// The bake's own noise estimate (its manifest's mean texel noise, tone-mapped variance),
+    /// beside the two-seed measurement in [`TraceMetrics::bake_noise`].
+    pub bake_noise_estimate: Option<f64>,
     /// Seconds to build the indexes.
     pub index_seconds: f64,
     /// Bytes of the probe textures as traced.
@@ -133,21 +138,22 @@ impl DemoReport {
         );
         let _ = writeln!(
             text,
-            "| placement | probes | coverage | bake (s) | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | MSE (tone-mapped) | reference noise | bake noise | PSNR (dB) | FLIP |"
+            "| placement | probes | coverage | bake (s) | samples/texel | selection | tracer | trace (ms) | fetches/ray | probes/ray | hit agreement | MSE | MSE (tone-mapped) | reference noise | bake noise | bake noise (its estimate) | PSNR (dB) | FLIP |"
         );
         let _ = writeln!(
             text,
-            "|---|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+            "|---|---:|---:|---:|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
         );
         for row in &self.rows {
             let t = &row.trace;
             let _ = writeln!(
                 text,
-                "| {} | {} | {:.1} % | {:.2} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.3e} | {:.1e} | {} | {:.2} | {:.4} |",
+                "| {} | {} | {:.1} % | {:.2} | {:.1} | {} | {} | {:.1} | {:.1} | {:.2} | {:.1} % | {:.3e} | {:.3e} | {:.1e} | {} | {} | {:.2} | {:.4} |",
                 row.placement,
                 row.probes,
                 100.0 * row.coverage,
                 row.bake_seconds,
+                row.samples_per_texel,
                 t.selection.name(),
                 t.tracer.name(),
                 t.trace_ms,
@@ -159,6 +165,8 @@ impl DemoReport {
                 t.reference_noise,
                 t.bake_noise
                     .map_or("not measured".to_owned(), |n| format!("{n:.1e}")),
+                row.bake_noise_estimate
+                    .map_or("none".to_owned(), |n| format!("{n:.1e}")),
                 t.psnr,
                 t.flip
             );
@@ -168,7 +176,8 @@ impl DemoReport {
             "\nNoise floors are tone-mapped variances, in the units of the tone-mapped MSE: an \
              image equal to the truth would still score about reference noise + bake noise. \
              Reference: {} shading samples per hit in {} passes, noise {:.2e}{}. Bake noise: \
-             half the tone-mapped MSE between the images of two bakes with different seeds.",
+             half the tone-mapped MSE between the images of two bakes with different seeds; \
+             its estimate: the bake's own figure (its manifest's mean texel noise).",
             self.reference.samples,
             self.reference.passes,
             self.reference.noise,
@@ -355,7 +364,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             &scene,
             &placed.probes.positions,
             options.resolution,
-            options.samples_per_texel,
+            options.sampling,
             &view,
             &|_, _| {},
         )?;
@@ -363,7 +372,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             &scene,
             &placed.probes.positions,
             options.resolution,
-            options.samples_per_texel,
+            options.sampling,
             &view,
             view.settings.seed + 1,
             &|_, _| {},
@@ -503,6 +512,8 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             coverage: set.coverage,
             place_seconds: set.place_seconds,
             bake_seconds: set.bake_seconds,
+            samples_per_texel: set.baked.mean_samples_per_texel(),
+            bake_noise_estimate: set.baked.noise(),
             index_seconds: set.index_seconds,
             memory: set.memory,
             trace: metrics,

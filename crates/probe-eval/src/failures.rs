@@ -40,7 +40,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
-use probe_capture::{BakeSettings, ProbeBake, Rng, bake, no_progress, render_gbuffer};
+use probe_capture::{BakeSettings, ProbeBake, Rng, Sampling, bake, no_progress, render_gbuffer};
 use probe_index::{IndexOptions, ProbeGrid, ProbeIndex, Tetrahedralization};
 use probe_octa::{OctaMap, encode};
 use probe_place::{
@@ -127,7 +127,8 @@ pub struct FailureOptions {
     pub require_gpu: bool,
     /// Octahedral resolution of the baked probes (a power of two from 8 to 1024). Default 32.
     pub resolution: u32,
-    /// Radiance samples per texel of the bakes. Default 2.
+    /// Radiance samples per texel of the bakes (fixed: the suite tests stability, not noise).
+    /// Default 2.
     pub samples_per_texel: u32,
     /// Width of the evaluation images. Default 96.
     pub width: u32,
@@ -840,7 +841,7 @@ fn bake_probes(
 ) -> Result<ProbeBake, EvalError> {
     let settings = BakeSettings {
         resolution,
-        samples_per_texel: options.samples_per_texel,
+        sampling: Sampling::fixed(options.samples_per_texel),
         bounces: 1,
         seed: options.seed,
         ..BakeSettings::default()
@@ -2111,7 +2112,7 @@ fn degenerate_input(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
     // NaN positions.
     let settings = BakeSettings {
         resolution: 8,
-        samples_per_texel: 1,
+        sampling: Sampling::fixed(1),
         ..BakeSettings::default()
     };
     r.refused("NaN probe position → bake", || {

@@ -61,7 +61,9 @@ pub struct TraceMetrics {
     pub reference_noise: f64,
     /// The bake's noise floor: the tone-mapped variance of this traced image due to the bake's
     /// Monte Carlo noise, when measured (two bakes with different seeds: half their images'
-    /// tone-mapped MSE); `None` when not measured (the bake manifest records no estimate).
+    /// tone-mapped MSE); `None` when not measured. (A bake's own figure,
+    /// [`probe_capture::ProbeBake::noise`], is a mean over its texels, not over what an
+    /// image reads.)
     pub bake_noise: Option<f64>,
     /// Each pixel class's share of the pixels and of `mse_tonemapped` ([`classify_pixels`]).
     pub classes: Vec<ClassShare>,
@@ -457,7 +459,7 @@ pub fn flip_map_rgb8(width: u32, height: u32, error: &[f32]) -> Vec<u8> {
 mod tests {
     use super::*;
     use glam::Vec3;
-    use probe_capture::{BakeSettings, EvaluationRay, bake, no_progress};
+    use probe_capture::{BakeSettings, EvaluationRay, Sampling, bake, no_progress};
     use probe_scene::Scene;
 
     fn result(status: RayStatus, position: Vec3, radiance: Vec3) -> RayResult {
@@ -481,7 +483,7 @@ mod tests {
         let probe = scene.bounds().center();
         let settings = BakeSettings {
             resolution: 8,
-            samples_per_texel: 1,
+            sampling: Sampling::fixed(1),
             ..BakeSettings::default()
         };
         let baked = bake(&scene, &[probe], &settings, &no_progress).unwrap();

@@ -10,8 +10,8 @@ use std::time::Instant;
 use glam::Vec3;
 use probe_capture::{
     BakeSettings, Environment, EvaluationRay, Image, MISS_DISTANCE, ProbeBake, Progress,
-    ReferenceSample, Reflection, Shader, accumulate_rays, bake, reflection_rays, render_gbuffer,
-    trace_reference,
+    ReferenceSample, Reflection, Sampling, Shader, accumulate_rays, bake, reflection_rays,
+    render_gbuffer, trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
 use probe_scene::{Camera, Scene};
@@ -266,7 +266,7 @@ pub fn bake_for_view(
     scene: &Scene,
     positions: &[Vec3],
     resolution: u32,
-    samples_per_texel: u32,
+    sampling: Sampling,
     view: &EvalView,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
@@ -274,7 +274,7 @@ pub fn bake_for_view(
         scene,
         positions,
         resolution,
-        samples_per_texel,
+        sampling,
         view,
         view.settings.seed,
         progress,
@@ -291,14 +291,14 @@ pub fn bake_for_view_seeded(
     scene: &Scene,
     positions: &[Vec3],
     resolution: u32,
-    samples_per_texel: u32,
+    sampling: Sampling,
     view: &EvalView,
     seed: u64,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
     let settings = BakeSettings {
         resolution,
-        samples_per_texel,
+        sampling,
         bounces: view.settings.bounces,
         seed,
         environment: Some(view.environment),

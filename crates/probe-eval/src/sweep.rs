@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
-use probe_capture::Image;
+use probe_capture::{Image, Sampling};
 use probe_place::{
     atlas::{Atlas, AtlasParams, BackfaceVote, RewardWeights, free_space_grid},
     optimize::{DescentParams, GibbsParams, descend, gibbs},
@@ -42,8 +42,14 @@ pub struct EvalConfig {
     pub view: ViewSettings,
     /// Probe resolution (interior texels per side, a power of two).
     pub resolution: u32,
-    /// Radiance samples per texel.
+    /// Radiance samples every texel takes (the first pass of adaptive sampling).
     pub samples_per_texel: u32,
+    /// The most radiance samples a texel takes; equal to `samples_per_texel` for fixed
+    /// sampling.
+    pub max_samples_per_texel: u32,
+    /// The noise each texel is sampled down to (tone-mapped variance,
+    /// [`Sampling::noise_target`]).
+    pub noise_target: f32,
     /// Depth of the sparse voxel octree.
     pub svo_depth: u32,
     /// Gibbs iterations for `+gibbs` placements.
@@ -108,7 +114,9 @@ impl Default for EvalConfig {
         Self {
             view: ViewSettings::default(),
             resolution: 128,
-            samples_per_texel: 2,
+            samples_per_texel: Sampling::default().samples_per_texel,
+            max_samples_per_texel: Sampling::default().max_samples_per_texel,
+            noise_target: Sampling::DEFAULT_NOISE_TARGET,
             svo_depth: 7,
             gibbs_iterations: 30,
             atlas_texels: 10_000,
@@ -137,6 +145,20 @@ impl Default for EvalConfig {
 }
 
 impl EvalConfig {
+    /// The bakes' sampling: adaptive from `samples_per_texel` to `max_samples_per_texel`
+    /// towards `noise_target`, or fixed when the two counts are equal.
+    pub fn sampling(&self) -> Sampling {
+        if self.max_samples_per_texel > self.samples_per_texel {
+            Sampling::adaptive(
+                self.samples_per_texel,
+                self.max_samples_per_texel,
+                self.noise_target,
+            )
+        } else {
+            Sampling::fixed(self.samples_per_texel)
+        }
+    }
+
     /// Reads a TOML configuration. Relative paths in it (`scenes_dir`, and scene files other
     /// than `builtin:NAME`) are taken relative to the file's directory, so a configuration
     /// means the same from any working directory.
@@ -393,6 +415,12 @@ pub struct SweepRecord<T = TraceMetrics> {
     pub place_seconds: f64,
     /// Seconds to bake.
     pub bake_seconds: f64,
+    /// Mean radiance samples per texel the bake took.
+    pub samples_per_texel: f64,
+    /// The bake's own noise figure: the mean over its texels of each texel's tone-mapped
+    /// variance ([`probe_capture::ProbeBake::noise`]). Not the image's bake noise: an image
+    /// inherits the noise of the texels it reads.
+    pub bake_texel_noise: Option<f64>,
     /// Seconds to index.
     pub index_seconds: f64,
     /// Distance probes and hi-Z pyramid, MB.
@@ -421,6 +449,8 @@ impl SweepRecord<()> {
             probes_inside_geometry: self.probes_inside_geometry,
             place_seconds: self.place_seconds,
             bake_seconds: self.bake_seconds,
+            samples_per_texel: self.samples_per_texel,
+            bake_texel_noise: self.bake_texel_noise,
             index_seconds: self.index_seconds,
             distance_mb: self.distance_mb,
             other_mb: self.other_mb,
@@ -682,7 +712,7 @@ pub fn run_sweep(
                     &scene,
                     &placed.probes.positions,
                     config.resolution,
-                    config.samples_per_texel,
+                    config.sampling(),
                     &view,
                     &|_, _| {},
                 )?;
@@ -740,6 +770,8 @@ pub fn run_sweep(
                             probes_inside_geometry: placed.report.probes_inside_geometry,
                             place_seconds: placed.report.seconds,
                             bake_seconds,
+                            samples_per_texel: baked.mean_samples_per_texel(),
+                            bake_texel_noise: baked.noise(),
                             index_seconds: index.seconds,
                             distance_mb: mb(memory.distance_bytes),
                             other_mb: mb(memory.other_bytes),
@@ -776,6 +808,10 @@ pub fn run_sweep(
                     resolution,
                     positions: &positions,
                 };
+                // The bake's own estimate is a mean over its texels; an image inherits the
+                // noise of the texels it reads, 1.1× that mean on the Cornell box but 4–5× on
+                // Sponza (BENCHMARKS.md, "Bakes that converge"), so it is reported apart
+                // (`bake_texel_noise`) and the image's bake noise stays unmeasured here.
                 let (trace, _) = compare_trace(footprints, &view, &traced, None)?;
                 records.push(record.with_trace(trace));
             }
@@ -834,13 +870,13 @@ pub fn run_sweep(
 
 fn to_csv(records: &[SweepRecord]) -> String {
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{}",
             r.scene,
             r.camera,
             r.placement,
@@ -874,10 +910,13 @@ fn to_csv(records: &[SweepRecord]) -> String {
             t.psnr,
             t.mse_tonemapped,
             t.reference_noise,
-            // Not measured in the sweep (one bake per placement; the manifest records no
-            // estimate): an empty cell, never a made-up figure.
+            // Not measured in the sweep (one bake per placement): an empty cell, never a
+            // made-up figure. The bake's own texel figure follows, apart.
             t.bake_noise.map_or(String::new(), |n| format!("{n:.6e}")),
-            t.flip
+            t.flip,
+            r.samples_per_texel,
+            r.bake_texel_noise
+                .map_or(String::new(), |n| format!("{n:.6e}")),
         );
     }
     text
@@ -1008,7 +1047,7 @@ fn write_charts(
             spec.pareto_front = pareto;
             spec.series = series;
             // The noise floor beside the errors: the noisiest reference of the scene's
-            // cameras (the bake's noise is not measured in the sweep).
+            // cameras.
             let floor = records
                 .iter()
                 .map(|r| r.trace.reference_noise)
@@ -1121,7 +1160,14 @@ fn report_markdown(report: &SweepReport) -> String {
         c.view.height,
         c.view.rays_per_pixel,
         c.resolution,
-        c.samples_per_texel,
+        if c.max_samples_per_texel > c.samples_per_texel {
+            format!(
+                "{}–{} (adaptive, to a tone-mapped noise of {:.1e} per texel)",
+                c.samples_per_texel, c.max_samples_per_texel, c.noise_target
+            )
+        } else {
+            c.samples_per_texel.to_string()
+        },
         c.view.bounces,
         c.svo_depth,
         report.device,

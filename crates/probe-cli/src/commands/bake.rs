@@ -5,7 +5,7 @@ use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
 use crate::spec::{SunArgs, open_scene, probe_set};
-use probe_capture::{BakeSettings, ProbeBake, bake};
+use probe_capture::{BakeSettings, ProbeBake, Sampling, bake};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -21,9 +21,20 @@ pub struct Args {
     /// Octahedral resolution per probe (interior texels per side, a power of two, ≤ 1024).
     #[arg(long, default_value_t = 256)]
     pub res: u32,
-    /// Jittered radiance samples per texel.
-    #[arg(long, default_value_t = 4)]
-    pub spp: u32,
+    /// Fixed sampling: exactly this many radiance samples per texel (no adaptive pass).
+    /// Without it the bake samples adaptively (`--min-spp`, `--max-spp`, `--noise`).
+    #[arg(long, conflicts_with_all = ["min_spp", "max_spp", "noise"])]
+    pub spp: Option<u32>,
+    /// Adaptive sampling: the samples every texel takes first.
+    #[arg(long, default_value_t = Sampling::default().samples_per_texel)]
+    pub min_spp: u32,
+    /// Adaptive sampling: the most samples a texel takes.
+    #[arg(long, default_value_t = Sampling::default().max_samples_per_texel)]
+    pub max_spp: u32,
+    /// Adaptive sampling: the mean noise each probe's texels are sampled down to, as a
+    /// variance in tone-mapped x/(1+x) units (3.5e-5 is a standard error of about 0.006).
+    #[arg(long, default_value_t = Sampling::DEFAULT_NOISE_TARGET)]
+    pub noise: f32,
     /// Extra diffuse bounces after direct light (0 = direct light only).
     #[arg(long, default_value_t = 1)]
     pub bounces: u32,
@@ -47,7 +58,10 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let probes = probe_set(&args.probes, &scene)?;
     let settings = BakeSettings {
         resolution: args.res,
-        samples_per_texel: args.spp,
+        sampling: match args.spp {
+            Some(spp) => Sampling::fixed(spp),
+            None => Sampling::adaptive(args.min_spp, args.max_spp, args.noise),
+        },
         bounces: args.bounces,
         seed: args.seed,
         environment: args.sun.environment(&scene)?,
@@ -89,10 +103,12 @@ struct BakeSummary {
 }
 
 impl BakeSummary {
+    /// Primary rays: one geometry ray per texel plus the radiance samples.
     fn rays(&self) -> u64 {
         let s = self.baked.settings();
         let texels = u64::from(s.resolution) * u64::from(s.resolution);
-        self.baked.probe_count() as u64 * texels * (1 + u64::from(s.samples_per_texel))
+        let samples: u64 = self.baked.sampling().iter().map(|p| p.samples).sum();
+        self.baked.probe_count() as u64 * texels + samples
     }
 }
 
@@ -118,7 +134,11 @@ impl Report for BakeSummary {
             "out": self.out.display().to_string(),
             "probes": self.baked.probe_count(),
             "resolution": s.resolution,
-            "samples_per_texel": s.samples_per_texel,
+            "samples_per_texel": s.sampling.samples_per_texel,
+            "max_samples_per_texel": s.sampling.max_samples_per_texel,
+            "noise_target": s.sampling.noise_target,
+            "mean_samples_per_texel": self.baked.mean_samples_per_texel(),
+            "noise": self.baked.noise(),
             "bounces": s.bounces,
             "seed": s.seed,
             "primary_rays": self.rays(),
@@ -138,17 +158,30 @@ impl Report for BakeSummary {
             .filter(|p| p.back_face_share > 0.25)
             .count();
         let mut text = format!(
-            "baked {} probes of {} at {}² × {} spp, {} bounce(s) in {:.2} s ({:.2} M primary rays/s), saved to {} in {:.2} s\n\
+            "baked {} probes of {} at {}² × {:.1} spp ({}), {} bounce(s) in {:.2} s ({:.2} M primary rays/s), saved to {} in {:.2} s\n\
+             noise (tone-mapped variance per texel, from the replicates): {}\n\
              probes seeing mostly back faces (share > 0.25, likely inside geometry): {}\n",
             self.baked.probe_count(),
             self.scene,
             s.resolution,
-            s.samples_per_texel,
+            self.baked.mean_samples_per_texel(),
+            match s.sampling.noise_target {
+                Some(target) if s.sampling.max_samples_per_texel > s.sampling.samples_per_texel =>
+                    format!(
+                        "adaptive {}–{} to {target:.1e}",
+                        s.sampling.samples_per_texel, s.sampling.max_samples_per_texel
+                    ),
+                _ => "fixed".to_owned(),
+            },
             s.bounces,
             self.bake_seconds,
             self.rays() as f64 / self.bake_seconds / 1e6,
             self.out.display(),
             self.save_seconds,
+            self.baked.noise().map_or(
+                "not estimated (1 sample per texel)".to_owned(),
+                |v| format!("{v:.2e}")
+            ),
             inside,
         );
         if let Some(previews) = &self.previews {

@@ -129,7 +129,7 @@ pub fn capture_sky_distance(scene: &Scene) -> f32 {
 pub fn capture_settings(resolution: u32) -> probe_capture::BakeSettings {
     probe_capture::BakeSettings {
         resolution,
-        samples_per_texel: 1,
+        sampling: probe_capture::Sampling::fixed(1),
         bounces: 0,
         pyramid_levels: 1,
         ..probe_capture::BakeSettings::default()
