@@ -136,7 +136,9 @@
 //! `(i + 3) mod 8`), the octree the best 4 probes of the leaf holding the point, Voronoi the
 //! nearest probe and then the failed probe's neighbours towards the point. At most
 //! [`TraceOptions::max_probes`] probes are tried; if all fail, the ray is UNKNOWN and gets the
-//! first probe's radiance in its direction (the environment-map fallback of seed 003 §5.4).
+//! radiance in its direction of the best probe for the furthest point the ray is known to
+//! have reached (the environment-map fallback of seed 003 §5.4, from a probe near where the
+//! ray was heading rather than near its origin).
 //!
 //! **Diffuse** (seed 001): trilinear grid or Delaunay barycentric weights times, optionally,
 //! the cubed Chebyshev weight of the probe's distance moments seen from the shading point

@@ -53,9 +53,10 @@ pub enum RayStatus {
     /// direction (its sky).
     Miss,
     /// No probe tried could see the whole ray (the cap on probes was reached or the selection
-    /// ran out). The fallback of seed 003 §5.4: radiance is the first probe tried used as an
-    /// environment map in the ray's direction; `t` and position mark how far the ray was
-    /// verified empty; the normal is zero.
+    /// ran out). The fallback of seed 003 §5.4: radiance is a probe used as an environment
+    /// map in the ray's direction, the selector's best probe for the last decided point (the
+    /// first probe tried if none is selected there); `t` and position mark how far the ray
+    /// was verified empty; the normal is zero.
     Unknown,
 }
 

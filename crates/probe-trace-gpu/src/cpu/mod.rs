@@ -394,7 +394,13 @@ pub(crate) fn trace_ray<O: RayObserver>(
             next += 1;
         }
     }
-    // Fallback (seed 003 §5.4): the first probe tried as an environment map.
+    // Fallback (seed 003 §5.4, an environment map): the selector's best probe for the last
+    // decided point, the furthest the ray is known to have come free, which sees the region
+    // the ray was heading into from nearest; the first probe tried when no probe is selected
+    // there.
+    if list.len > 0 {
+        fallback = list.probes[0];
+    }
     record.t = t;
     record.position = (origin + direction * t).to_array();
     record.probes_tried = tried;

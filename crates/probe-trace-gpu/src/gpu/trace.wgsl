@@ -833,6 +833,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             next += 1u;
         }
     }
+    // The selector's best probe for the last decided point (src/cpu/mod.rs).
+    if (list.len > 0u) {
+        fallback = list.probes[0];
+    }
     record.t = t;
     record.position = origin + direction * t;
     record.probes_tried = tried;
