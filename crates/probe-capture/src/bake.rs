@@ -912,13 +912,6 @@ pub fn bake(
 /// bias, whatever the sequence's stratification gains (randomised quasi-Monte Carlo).
 pub const NOISE_REPLICATES: u32 = 2;
 
-/// The tone map the noise is measured in, `x / (1 + x)` per channel (the evaluation's).
-#[inline]
-fn tone_map_slope(radiance: Vec3) -> Vec3 {
-    let d = Vec3::ONE + radiance.max(Vec3::ZERO);
-    1.0 / (d * d)
-}
-
 /// One texel's running sums, per replicate.
 #[derive(Clone, Copy, Default)]
 struct TexelSums {
@@ -967,25 +960,38 @@ impl TexelSums {
     }
 
     /// The estimated variance of [`Self::mean`] in tone-mapped units (mean over the three
-    /// channels), from the spread of the replicates' means; `None` with fewer than two
-    /// replicates.
+    /// channels), from the spread of the replicates' tone-mapped means; `None` with fewer than
+    /// two replicates. The spread is taken after tone mapping, not through the tone map's
+    /// slope at the mean: a texel straddling an emitter's edge has replicates of 0.5 and 17,
+    /// whose tone-mapped values differ by 0.6 while the slope at their mean (8.8) would
+    /// shrink their linear spread to a tenth of that.
     fn noise(&self) -> Option<f32> {
         let replicates = self.samples.min(NOISE_REPLICATES);
         if replicates < 2 {
             return None;
         }
-        let mean = self.mean();
         let total = self.samples as f32;
-        let mut spread = Vec3::ZERO;
+        let tone = |v: Vec3| {
+            let v = v.max(Vec3::ZERO);
+            v / (Vec3::ONE + v)
+        };
+        let mut weighted = [(0.0f32, Vec3::ZERO); NOISE_REPLICATES as usize];
+        let mut mean = Vec3::ZERO;
         for r in 0..replicates {
             // Replicate r holds the samples k ≡ r (mod NOISE_REPLICATES).
             let count = (self.samples - r).div_ceil(NOISE_REPLICATES) as f32;
-            let d = (self.sums[r as usize] / count - mean) * (count / total);
+            let share = count / total;
+            let value = tone(self.sums[r as usize] / count);
+            weighted[r as usize] = (share, value);
+            mean += value * share;
+        }
+        let mut spread = Vec3::ZERO;
+        for &(share, value) in &weighted[..replicates as usize] {
+            let d = (value - mean) * share;
             spread += d * d;
         }
         let variance = spread * (replicates as f32 / (replicates - 1) as f32);
-        let slope = tone_map_slope(mean);
-        Some((variance * slope * slope).element_sum() / 3.0)
+        Some(variance.element_sum() / 3.0)
     }
 }
 

@@ -16,7 +16,7 @@ fn probes() -> Vec<Vec3> {
 
 fn baked(scene: &Scene, sampling: Sampling, seed: u64) -> ProbeBake {
     let settings = BakeSettings {
-        resolution: 16,
+        resolution: 32,
         sampling,
         bounces: 1,
         seed,
@@ -66,23 +66,41 @@ fn manifest_noise(baked: &ProbeBake) -> Vec<Option<f64>> {
     sampling.iter().map(|r| r["noise"].as_f64()).collect()
 }
 
+/// The bake's noise estimate (the mean of the manifest's per-probe figures) agrees with the
+/// two-seed measurement within 2×, and every probe's within 3×: a probe's figure is a mean
+/// over its texels of heavy-tailed variances (a rare bright path in one texel), which one
+/// pair of seeds and one degree of freedom per texel measure more loosely.
 fn check_agreement(sampling: Sampling) {
     let scene = Scene::builtin("cornell").unwrap();
     let (a, b) = (baked(&scene, sampling, 0), baked(&scene, sampling, 1));
     let measured = two_seed_noise(&a, &b);
     let (estimated_a, estimated_b) = (manifest_noise(&a), manifest_noise(&b));
+    let mut estimated = Vec::new();
     for (probe, measured) in measured.iter().enumerate() {
-        let (ea, eb) = (estimated_a[probe], estimated_b[probe]);
-        let (Some(ea), Some(eb)) = (ea, eb) else {
+        let (Some(ea), Some(eb)) = (estimated_a[probe], estimated_b[probe]) else {
             panic!("{sampling:?}: probe {probe} has no noise estimate in the manifest");
         };
-        let estimated = (ea + eb) / 2.0;
-        let ratio = estimated / measured;
-        assert!(
-            (0.5..=2.0).contains(&ratio),
-            "{sampling:?}, probe {probe}: manifest noise {estimated:.3e}, two seeds {measured:.3e} (ratio {ratio:.2})"
+        let probe_estimate = (ea + eb) / 2.0;
+        let ratio = probe_estimate / measured;
+        eprintln!(
+            "{sampling:?}, probe {probe}: manifest {probe_estimate:.3e}, two seeds {measured:.3e}, ratio {ratio:.2}"
         );
+        assert!(
+            (1.0 / 3.0..=3.0).contains(&ratio),
+            "{sampling:?}, probe {probe}: manifest noise {probe_estimate:.3e}, two seeds {measured:.3e} (ratio {ratio:.2})"
+        );
+        estimated.push(probe_estimate);
     }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let (estimated, measured) = (mean(&estimated), mean(&measured));
+    // The bake's own figure is the same mean.
+    let bake_figure = (a.noise().unwrap() + b.noise().unwrap()) / 2.0;
+    assert!((bake_figure - estimated).abs() <= 1e-6 * estimated.max(1e-12));
+    let ratio = estimated / measured;
+    assert!(
+        (0.5..=2.0).contains(&ratio),
+        "{sampling:?}: the bake's noise estimate {estimated:.3e}, two seeds {measured:.3e} (ratio {ratio:.2})"
+    );
 }
 
 #[test]
@@ -92,7 +110,7 @@ fn manifest_noise_agrees_with_two_seeds_for_fixed_sampling() {
 
 #[test]
 fn manifest_noise_agrees_with_two_seeds_for_adaptive_sampling() {
-    check_agreement(Sampling::adaptive(4, 32, 2e-4));
+    check_agreement(Sampling::adaptive(8, 64, 1e-4));
 }
 
 #[test]

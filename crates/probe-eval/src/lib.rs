@@ -56,8 +56,9 @@
 //!     atlas_texels: 1000,
 //!     ..PlaceOptions::new(Method::Grid([2, 2, 2]))
 //! })?;
+//! let sampling = probe_capture::Sampling::fixed(1);
 //! let (baked, _) =
-//!     bake_for_view(&scene, &placed.probes.positions, 16, 1, &view, &probe_capture::no_progress)?;
+//!     bake_for_view(&scene, &placed.probes.positions, 16, sampling, &view, &probe_capture::no_progress)?;
 //! let grid = ProbeGrid::detect(baked.positions());
 //! assert!(grid.is_some());
 //! let index = build_index(&scene, baked.positions(), 4, grid, 1)?;
