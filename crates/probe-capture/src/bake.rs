@@ -34,7 +34,7 @@ pub struct BakeSettings {
     /// padded, `(N+2)²` texels). A power of two from 1 to [`MAX_BAKE_RESOLUTION`] (the
     /// min/max pyramid halves it level by level). Default 256.
     pub resolution: u32,
-    /// How many radiance samples each texel takes ([`Sampling`]). Default: adaptive, 8 to 64
+    /// How many radiance samples each texel takes ([`Sampling`]). Default: adaptive, 8 to 128
     /// samples per texel until each probe's mean texel noise is
     /// [`Sampling::DEFAULT_NOISE_TARGET`].
     pub sampling: Sampling,
@@ -157,7 +157,7 @@ impl Sampling {
 
 impl Default for Sampling {
     fn default() -> Self {
-        Sampling::adaptive(8, 64, Sampling::DEFAULT_NOISE_TARGET)
+        Sampling::adaptive(8, 128, Sampling::DEFAULT_NOISE_TARGET)
     }
 }
 
