@@ -273,15 +273,7 @@ fn inside_geometry_on_closed_and_open_shapes() {
 }
 
 fn triangle(positions: [Vec3; 3]) -> Triangle {
-    let n = (positions[1] - positions[0])
-        .cross(positions[2] - positions[0])
-        .normalize();
-    Triangle {
-        positions,
-        normals: [n; 3],
-        uvs: [glam::Vec2::ZERO; 3],
-        material: 0,
-    }
+    Triangle::flat(positions, 0)
 }
 
 #[test]

@@ -97,6 +97,19 @@ pub struct Triangle {
 }
 
 impl Triangle {
+    /// A flat-shaded triangle: its geometric normal ([`Self::geometric_normal`]) at every
+    /// vertex and zero texture coordinates.
+    pub fn flat(positions: [Vec3; 3], material: u32) -> Triangle {
+        let mut triangle = Triangle {
+            positions,
+            normals: [Vec3::ZERO; 3],
+            uvs: [Vec2::ZERO; 3],
+            material,
+        };
+        triangle.normals = [triangle.geometric_normal(); 3];
+        triangle
+    }
+
     /// The area in square metres.
     pub fn area(&self) -> f32 {
         let [p0, p1, p2] = self.positions;

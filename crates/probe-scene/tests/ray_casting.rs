@@ -7,14 +7,9 @@ use probe_scene::{
 use std::sync::Arc;
 
 fn triangle(positions: [Vec3; 3], material: u32) -> Triangle {
-    let n = (positions[1] - positions[0])
-        .cross(positions[2] - positions[0])
-        .normalize();
     Triangle {
-        positions,
-        normals: [n; 3],
         uvs: [Vec2::ZERO, Vec2::X, Vec2::Y],
-        material,
+        ..Triangle::flat(positions, material)
     }
 }
 

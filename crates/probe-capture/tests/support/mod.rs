@@ -1,20 +1,12 @@
 //! Test support: flat-shaded triangles and quads for scenes built in code.
 #![allow(dead_code)]
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use probe_scene::Triangle;
 
 /// A flat-shaded triangle (its geometric normal at every vertex).
 pub fn triangle(positions: [Vec3; 3], material: u32) -> Triangle {
-    let n = (positions[1] - positions[0])
-        .cross(positions[2] - positions[0])
-        .normalize();
-    Triangle {
-        positions,
-        normals: [n; 3],
-        uvs: [Vec2::ZERO; 3],
-        material,
-    }
+    Triangle::flat(positions, material)
 }
 
 /// A quad `a b c d` (in order around its edge) wound so its normal points along `facing`.
