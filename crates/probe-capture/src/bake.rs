@@ -1041,20 +1041,28 @@ fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f
         f64::from(sampling.samples_per_texel),
         f64::from(sampling.max_samples_per_texel),
     );
-    let count = |c: f64, s: f64| (c * s.sqrt()).ceil().clamp(low, high);
-    let mean_noise =
-        |c: f64| smoothed.iter().map(|&s| s / count(c, s)).sum::<f64>() / (n * n) as f64;
+    // The per-sample standard deviations, taken once for the bisection's inner loop.
+    let deviations: Vec<f64> = smoothed.iter().map(|s| s.sqrt()).collect();
+    let count = |c: f64, deviation: f64| (c * deviation).ceil().clamp(low, high);
+    let mean_noise = |c: f64| {
+        smoothed
+            .iter()
+            .zip(&deviations)
+            .map(|(&s, &d)| s / count(c, d))
+            .sum::<f64>()
+            / (n * n) as f64
+    };
     let target = f64::from(target);
     let counts_for =
-        |c: f64| -> Vec<u32> { smoothed.iter().map(|&s| count(c, s) as u32).collect() };
+        |c: f64| -> Vec<u32> { deviations.iter().map(|&d| count(c, d) as u32).collect() };
     if mean_noise(0.0) <= target {
         return counts_for(0.0);
     }
     // Every texel with any variance at the cap: the most the cap allows.
-    let largest = smoothed
+    let largest = deviations
         .iter()
-        .filter(|&&s| s > 0.0)
-        .map(|&s| high / s.sqrt())
+        .filter(|&&d| d > 0.0)
+        .map(|&d| high / d)
         .fold(0.0f64, f64::max);
     if mean_noise(largest) > target {
         return counts_for(largest);
