@@ -68,6 +68,9 @@ pub struct TopViewOptions {
     pub legend: bool,
     /// Four rays per pixel (2 × 2) instead of one, for smooth edges.
     pub antialias: bool,
+    /// Boxes of a region of interest, outlined in orange under the probes (their `x`–`z`
+    /// footprint).
+    pub regions: Vec<probe_scene::Aabb>,
 }
 
 impl Default for TopViewOptions {
@@ -83,6 +86,7 @@ impl Default for TopViewOptions {
             caption: None,
             legend: true,
             antialias: true,
+            regions: Vec::new(),
         }
     }
 }
@@ -311,6 +315,7 @@ const SECTION_LIGHT: f32 = 0.055;
 const HATCH_PERIOD: f32 = 7.0;
 const OUTLINE: RGBColor = RGBColor(25, 25, 30);
 const COMPARISON_COLOUR: RGBColor = RGBColor(220, 40, 200);
+const REGION_COLOUR: RGBColor = RGBColor(240, 130, 0);
 
 impl View {
     fn new(scene: &Scene, probes: &[Vec3], options: &TopViewOptions) -> Result<View, TopViewError> {
@@ -350,7 +355,13 @@ impl View {
         }
         let mut min = Vec2::new(bounds.min.x, bounds.min.z);
         let mut max = Vec2::new(bounds.max.x, bounds.max.z);
-        for p in probes.iter().chain(&options.comparison) {
+        let corners = options.regions.iter().flat_map(|b| [b.min, b.max]);
+        for p in probes
+            .iter()
+            .chain(&options.comparison)
+            .copied()
+            .chain(corners)
+        {
             min = min.min(Vec2::new(p.x, p.z));
             max = max.max(Vec2::new(p.x, p.z));
         }
@@ -495,7 +506,19 @@ impl View {
             (at.x.floor() as i32, at.y.floor() as i32)
         };
 
-        // The comparison set first, under the probes: squares with a halo and an outline.
+        // The region's boxes first, under everything: an orange outline with a white halo.
+        for b in &options.regions {
+            let (x0, y0) = pixel(b.min);
+            let (x1, y1) = pixel(b.max);
+            for (inset, colour) in [(0, WHITE), (1, REGION_COLOUR), (2, REGION_COLOUR)] {
+                map.draw(&Rectangle::new(
+                    [(x0 + inset, y0 + inset), (x1 - inset, y1 - inset)],
+                    colour.stroke_width(1),
+                ))?;
+            }
+        }
+
+        // The comparison set, under the probes: squares with a halo and an outline.
         let half = (radius * 0.8).round().max(2.0) as i32;
         for &p in &options.comparison {
             let (x, y) = pixel(p);
@@ -651,6 +674,13 @@ fn legend_items(probes: &[Vec3], options: &TopViewOptions, heights: (f32, f32)) 
         } else {
             format!("cut at y = {cut:.2} m")
         }));
+    }
+    if !options.regions.is_empty() {
+        items.push(LegendItem::Text(format!(
+            "region: {} box{} (orange)",
+            options.regions.len(),
+            if options.regions.len() == 1 { "" } else { "es" }
+        )));
     }
     items.push(LegendItem::Text("x →  z ↓".to_owned()));
     if let Some(caption) = &options.caption {

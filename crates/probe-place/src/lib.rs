@@ -261,6 +261,7 @@ mod par;
 pub mod pipeline;
 mod probes;
 mod provenance;
+pub mod region;
 mod report;
 mod sdf;
 mod voxel;

@@ -358,3 +358,80 @@ mod tests {
         assert!(after >= 0.5 && kept.len() == 1, "{kept:?} {after}");
     }
 }
+
+/// What [`complete_coverage`] added.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Completion {
+    /// The probes: those given first, in their order, then the ones added.
+    pub positions: Vec<Vec3>,
+    /// How many were added.
+    pub added: usize,
+    /// Texels still unseen (0 unless the budget stopped the completion: every atlas texel is
+    /// seen by some reference point, and the candidates given are usually those points).
+    pub uncovered: usize,
+}
+
+/// Completes the coverage of `chosen`: adds, one at a time, the candidate that sees the most
+/// texels no chosen probe sees (ties: the lowest index), until every texel is seen, no
+/// candidate sees a new one, or the set has `budget` probes.
+///
+/// With the atlas's own reference points as `candidates` (as
+/// [`pipeline::place`](crate::pipeline::place) passes them) full coverage is always reached
+/// without a budget: the atlas keeps only texels some reference point sees. Only the texels
+/// left unseen are tested against the candidates, so completing a nearly full set is cheap.
+pub fn complete_coverage(
+    atlas: &Atlas<'_>,
+    candidates: &[Vec3],
+    chosen: Vec<Vec3>,
+    budget: Option<usize>,
+) -> Completion {
+    let seen = atlas.seen_by_any(&chosen);
+    let mut unseen: Vec<u32> = seen
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| (!*s).then_some(i as u32))
+        .collect();
+    let mut positions = chosen;
+    let given = positions.len();
+    let budget = budget.unwrap_or(usize::MAX);
+    if unseen.is_empty() || positions.len() >= budget {
+        return Completion {
+            positions,
+            added: 0,
+            uncovered: unseen.len(),
+        };
+    }
+    // Which unseen texels each candidate sees (sorted texel ids).
+    let mut sees: Vec<Vec<u32>> = candidates
+        .par_iter()
+        .map(|c| atlas.sees_texels(*c, &unseen))
+        .collect();
+    let mut used = vec![false; candidates.len()];
+    let mut covered = vec![false; atlas.samples().len()];
+    while !unseen.is_empty() && positions.len() < budget {
+        // Drop what the last pick covered from every list, then take the longest.
+        let (best, gain) = sees
+            .iter_mut()
+            .enumerate()
+            .filter(|(i, _)| !used[*i])
+            .map(|(i, list)| {
+                list.retain(|t| !covered[*t as usize]);
+                (i, list.len())
+            })
+            .fold((usize::MAX, 0), |a, b| if b.1 > a.1 { b } else { a });
+        if gain == 0 {
+            break;
+        }
+        used[best] = true;
+        for &t in &sees[best] {
+            covered[t as usize] = true;
+        }
+        positions.push(candidates[best]);
+        unseen.retain(|t| !covered[*t as usize]);
+    }
+    Completion {
+        added: positions.len() - given,
+        uncovered: unseen.len(),
+        positions,
+    }
+}

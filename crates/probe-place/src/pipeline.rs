@@ -26,6 +26,7 @@
 
 use std::time::Instant;
 
+use crate::atlas::FreeSpace;
 pub use crate::provenance::PlaceProvenance;
 use crate::provenance::PlacementMethod;
 use crate::{
@@ -38,8 +39,9 @@ use crate::{
     irradiance::{
         GradientAscentParams, LightingOracle, SpawnMergeParams, gradient_ascent, spawn_and_merge,
     },
-    minimal::{CoverParams, minimal_cover},
+    minimal::{CoverParams, complete_coverage, minimal_cover},
     optimize::{DescentParams, GibbsParams, IterationRecord, descend, gibbs},
+    region::{Region, RegionError, RegionFreeSpace},
 };
 use glam::Vec3;
 use probe_scene::Scene;
@@ -63,6 +65,10 @@ pub enum PlaceError {
     /// An irradiance-driven method failed.
     #[error("irradiance placement: {0}")]
     Irradiance(#[from] crate::irradiance::IrradianceError),
+    /// The region of interest was refused (outside the scene, no free space inside). Fix: as
+    /// the [`RegionError`] says.
+    #[error("region: {0}")]
+    Region(#[from] RegionError),
     /// An irradiance-driven method was asked for without a lighting oracle. Fix: pass a
     /// [`LightingOracle`] to [`place`] (probe-eval's `CaptureOracle` shades the scene with
     /// probe-capture), or choose a geometric method.
@@ -81,9 +87,12 @@ pub enum PlaceError {
         /// What is accepted.
         reason: &'static str,
     },
-    /// The method produced no probe (a scene with no free space). Fix: check the scene has
-    /// room inside its bounds, or use a grid.
-    #[error("{method} placed no probe in {scene}: the scene has no free space the method can use")]
+    /// The method produced no probe (a scene with no free space, or a region where the
+    /// method's probes do not fall). Fix: check the scene has room inside its bounds, use a
+    /// grid, or set [`PlaceOptions::complete`] to fill a region from its free points.
+    #[error(
+        "{method} placed no probe in {scene}: the scene (or the region) has no free space the method can use; `complete` fills a region from its free points"
+    )]
     NoProbes {
         /// The method.
         method: String,
@@ -165,6 +174,17 @@ pub struct PlaceOptions {
     pub reference_spacing: Option<f32>,
     /// Optimiser support-cube half edge (metres); default 1/100 of the longest side.
     pub step: Option<f32>,
+    /// Where viewers go: probes are placed only inside, and the atlas keeps only the
+    /// surfaces a free point inside can see (so coverage counts only those). `None`: the whole
+    /// scene. Grids divide the region's bounding box (their probes outside every box of a
+    /// union are dropped); the longest side above is the region's.
+    pub region: Option<Region>,
+    /// After the method, the cut and the optimiser: add reference points (the atlas's free
+    /// points) that see the most unseen texels until every texel is seen
+    /// ([`complete_coverage`]), within the budget if there is one. Full coverage is then
+    /// reached by construction; the report's `unreachable_texels` counts the surfaces no free
+    /// point (of the region) sees at a non-grazing angle.
+    pub complete: bool,
 }
 
 impl PlaceOptions {
@@ -181,6 +201,8 @@ impl PlaceOptions {
             atlas_texels: 20_000,
             reference_spacing: None,
             step: None,
+            region: None,
+            complete: false,
         }
     }
 }
@@ -319,7 +341,14 @@ pub fn place(
         }
         .into());
     }
-    let longest = scene.bounds().size().max_element();
+    let region = match &options.region {
+        Some(region) => Some(region.within(scene.bounds())?),
+        None => None,
+    };
+    let scene_longest = scene.bounds().size().max_element();
+    let longest = region
+        .as_ref()
+        .map_or(scene_longest, |r| r.bounds().size().max_element());
     let spacing = positive(
         "reference spacing",
         options.reference_spacing.unwrap_or(longest / 25.0),
@@ -328,12 +357,32 @@ pub fn place(
 
     // The free-space test (ray vote and SDF voxels must agree) and the atlas.
     let atlas_start = Instant::now();
-    let voxels = VoxelGrid::build(scene, longest / 160.0)?;
-    let free = (
+    let voxels = VoxelGrid::build(scene, scene_longest / 160.0)?;
+    let scene_free = (
         BackfaceVote::new(scene),
         VoxelFreeSpace::new(&voxels, scene.bounds()),
     );
-    let pool = free_space_grid(&free, spacing);
+    let region_free = region
+        .as_ref()
+        .map(|r| RegionFreeSpace::new(&scene_free, r));
+    let free: &dyn FreeSpace = match &region_free {
+        Some(r) => r,
+        None => &scene_free,
+    };
+    let pool = free_space_grid(free, spacing);
+    if region.is_some() && pool.is_empty() {
+        let size = free.bounds().size() / spacing;
+        return Err(RegionError::NoFreeSpace {
+            points: (size.round().max(Vec3::ONE)).element_product() as usize,
+            spacing,
+        }
+        .into());
+    }
+    let inside = |p: &Vec3| region.as_ref().is_none_or(|r| r.contains(*p));
+    let grid_over = |dims| match &region {
+        Some(r) => RegularGrid::new(r.bounds(), dims),
+        None => RegularGrid::over_scene(scene, dims),
+    };
     let atlas = Atlas::build(
         scene,
         &AtlasParams::for_texel_count(scene, options.atlas_texels),
@@ -347,14 +396,10 @@ pub fn place(
     let mut positions: Vec<Vec3> = match options.method {
         Method::Grid(dims) => {
             full_grid = Some(dims);
-            RegularGrid::over_scene(scene, dims)?.positions()
+            grid_over(dims)?.positions()
         }
         Method::GridRelocated(dims) => {
-            let classified = classify_grid(
-                scene,
-                &RegularGrid::over_scene(scene, dims)?,
-                &ClassifyParams::default(),
-            )?;
+            let classified = classify_grid(scene, &grid_over(dims)?, &ClassifyParams::default())?;
             run.removed = Some(classified.removed.len());
             if classified.removed.is_empty() {
                 full_grid = Some(dims);
@@ -381,13 +426,13 @@ pub fn place(
                 spawn_and_merge(
                     scene,
                     oracle,
-                    &free,
+                    free,
                     &SpawnMergeParams::with_spacing(spacing),
                 )?
             } else {
                 let mut params = GradientAscentParams::with_spacing(spacing);
                 params.seed = options.seed;
-                gradient_ascent(scene, oracle, &free, &params)?
+                gradient_ascent(scene, oracle, free, &params)?
             };
             run.lit = Some(placed.lit);
             run.unlit = Some(placed.unlit);
@@ -403,10 +448,11 @@ pub fn place(
             let mut medial = MedialParams::for_scene(scene);
             medial.seed = options.seed;
             candidates.extend(medial_candidates(scene, &medial)?.probes.positions);
+            candidates.retain(inside);
             run.candidates = Some(candidates.len());
             let set = minimal_cover(
                 &atlas,
-                &free,
+                free,
                 &candidates,
                 &CoverParams {
                     target_coverage: options.coverage,
@@ -422,13 +468,21 @@ pub fn place(
             }
         }
     };
+    // Inside the region only (a grid's probes outside a union's boxes, the skeleton's and the
+    // medial axis's elsewhere in the scene).
+    let before = positions.len();
+    positions.retain(inside);
+    if positions.len() != before {
+        full_grid = None;
+    }
     // A budget or a coverage target below 1 keeps as few of the method's probes as reach it.
-    if options.method != Method::Minimal
+    if !positions.is_empty()
+        && options.method != Method::Minimal
         && (options.budget.is_some_and(|b| b < positions.len()) || options.coverage < 1.0)
     {
         let set = minimal_cover(
             &atlas,
-            &free,
+            free,
             &positions,
             &CoverParams {
                 target_coverage: options.coverage,
@@ -440,12 +494,12 @@ pub fn place(
         full_grid = None;
     }
     let mut history = None;
-    if let Some(optimizer) = options.optimize {
+    if let Some(optimizer) = options.optimize.filter(|_| !positions.is_empty()) {
         run.optimizer = Some((optimizer, step, options.iterations));
         let result = match optimizer {
             Optimizer::Gibbs => gibbs(
                 &atlas,
-                &free,
+                free,
                 &positions,
                 &GibbsParams {
                     max_iterations: options.iterations,
@@ -455,7 +509,7 @@ pub fn place(
             )?,
             Optimizer::Descent => descend(
                 &atlas,
-                &free,
+                free,
                 &positions,
                 &DescentParams {
                     max_iterations: options.iterations,
@@ -467,8 +521,17 @@ pub fn place(
         history = Some(result.history);
         full_grid = None;
     }
+    if options.complete {
+        let completion = complete_coverage(&atlas, &pool, positions, options.budget);
+        positions = completion.positions;
+        if completion.added > 0 {
+            full_grid = None;
+        }
+        run.completed = Some(completion.added);
+    }
     let seconds = start.elapsed().as_secs_f64();
     run.budget = options.budget;
+    run.region = region.clone();
     if options.coverage < 1.0 {
         run.coverage_target = Some(options.coverage);
     }
@@ -479,7 +542,7 @@ pub fn place(
             scene: scene.name().to_owned(),
         });
     }
-    let report = PlacementReport::measure(method.clone(), &atlas, &free, &positions, seconds);
+    let report = PlacementReport::measure(method.clone(), &atlas, free, &positions, seconds);
     Ok(Placement {
         probes: ProbeSet::new(positions).with_method(method),
         report,

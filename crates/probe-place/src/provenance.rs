@@ -3,6 +3,7 @@
 use crate::candidates::{MedialParams, SdfParams};
 use crate::pipeline::{Method, Optimizer};
 use crate::probes::json_f32;
+use crate::region::Region;
 use glam::Vec3;
 use probe_scene::Aabb;
 use serde_json::{Map, Value, json};
@@ -92,6 +93,10 @@ pub struct PlaceProvenance {
     pub unlit: Option<usize>,
     /// [`Method::Minimal`]: the candidate pool's size.
     pub candidates: Option<usize>,
+    /// The region of interest the probes were placed in ([`PlaceOptions::region`](crate::pipeline::PlaceOptions::region)).
+    pub region: Option<Region>,
+    /// Probes added to complete the coverage ([`PlaceOptions::complete`](crate::pipeline::PlaceOptions::complete)).
+    pub completed: Option<usize>,
 }
 
 impl PlaceProvenance {
@@ -108,6 +113,8 @@ impl PlaceProvenance {
             lit: None,
             unlit: None,
             candidates: None,
+            region: None,
+            completed: None,
         }
     }
 }
@@ -132,6 +139,9 @@ impl PlacementMethod {
                     Some((Optimizer::Gibbs, ..)) => name.push_str("+gibbs"),
                     Some((Optimizer::Descent, ..)) => name.push_str("+descent"),
                     None => {}
+                }
+                if run.completed.is_some() {
+                    name.push_str("+complete");
                 }
                 if let Some(budget) = run.budget {
                     name.push_str(&format!("@{budget}"));
@@ -187,6 +197,7 @@ impl PlacementMethod {
                     ("unlit", run.unlit),
                     ("candidates", run.candidates),
                     ("budget", run.budget),
+                    ("completed", run.completed),
                 ];
                 for (key, value) in counts {
                     if let Some(value) = value {
@@ -204,6 +215,9 @@ impl PlacementMethod {
                     put("coverage_target", json!(target));
                 }
                 put("seed", json!(run.seed));
+                if let Some(region) = &run.region {
+                    put("region", region.to_json());
+                }
                 parameters
             }
             PlacementMethod::Recorded { parameters, .. } => parameters.clone(),

@@ -145,3 +145,149 @@ fn fill_to_budget_adds_only_probes_that_add_something() {
     // A budget already met adds nothing.
     assert_eq!(fill_to_budget(&atlas, &pool, filled.clone(), 2), filled);
 }
+
+mod regions {
+    use super::*;
+    use probe_place::region::{Region, RegionError};
+
+    /// The left half of the Cornell box (x < 0.25 m), clear of both blocks' tops.
+    fn left_half() -> Region {
+        Region::parse_boxes(["0.02,0.02,0.02:0.25,0.52,0.54"]).unwrap()
+    }
+
+    #[test]
+    fn every_method_places_inside_the_region_and_records_it() {
+        let scene = Scene::builtin("cornell").unwrap();
+        let region = left_half();
+        for method in [Method::Grid([2, 3, 3]), Method::Sdf, Method::Minimal] {
+            let placed = place(
+                &scene,
+                &PlaceOptions {
+                    region: Some(region.clone()),
+                    optimize: (method == Method::Sdf).then_some(Optimizer::Gibbs),
+                    iterations: 3,
+                    ..options(method)
+                },
+                None,
+            )
+            .unwrap();
+            assert!(!placed.probes.is_empty(), "{method:?}");
+            for p in &placed.probes.positions {
+                assert!(region.contains(*p), "{method:?}: {p} outside the region");
+            }
+            let PlacementMethod::Placed(run) = &placed.probes.method else {
+                panic!("{method:?}: not a placed run");
+            };
+            assert_eq!(run.region.as_ref(), Some(&region));
+            assert!(placed.probes.method.parameters().contains_key("region"));
+        }
+    }
+
+    #[test]
+    fn the_region_limits_what_coverage_asks_for() {
+        let scene = Scene::builtin("cornell").unwrap();
+        let whole = place(&scene, &options(Method::Grid([2, 2, 2])), None).unwrap();
+        let half = place(
+            &scene,
+            &PlaceOptions {
+                region: Some(left_half()),
+                ..options(Method::Grid([2, 2, 2]))
+            },
+            None,
+        )
+        .unwrap();
+        // Surfaces seen only from the right half (the blocks' faces towards the green wall)
+        // are not reachable from the left half: fewer texels are asked for.
+        assert!(
+            half.report.unreachable_texels > whole.report.unreachable_texels,
+            "{} vs {}",
+            half.report.unreachable_texels,
+            whole.report.unreachable_texels
+        );
+    }
+
+    #[test]
+    fn completion_reaches_full_coverage_within_the_region() {
+        let scene = Scene::builtin("cornell").unwrap();
+        let region = left_half();
+        let plain = place(
+            &scene,
+            &PlaceOptions {
+                region: Some(region.clone()),
+                ..options(Method::Grid([2, 2, 2]))
+            },
+            None,
+        )
+        .unwrap();
+        assert!(plain.report.coverage < 1.0, "the test needs a gap to fill");
+        let completed = place(
+            &scene,
+            &PlaceOptions {
+                region: Some(region.clone()),
+                complete: true,
+                ..options(Method::Grid([2, 2, 2]))
+            },
+            None,
+        )
+        .unwrap();
+        assert_eq!(completed.report.coverage, 1.0);
+        assert!(completed.probes.len() > plain.probes.len());
+        assert_eq!(completed.full_grid, None);
+        assert_eq!(completed.probes.method.name(), "grid-2x2x2+complete");
+        assert!(
+            completed
+                .probes
+                .positions
+                .iter()
+                .all(|p| region.contains(*p))
+        );
+        // The grid's probes come first, unchanged.
+        assert_eq!(
+            &completed.probes.positions[..plain.probes.len()],
+            &plain.probes.positions[..]
+        );
+        // A budget stops the completion.
+        let budgeted = place(
+            &scene,
+            &PlaceOptions {
+                region: Some(region),
+                complete: true,
+                budget: Some(plain.probes.len() + 1),
+                ..options(Method::Grid([2, 2, 2]))
+            },
+            None,
+        )
+        .unwrap();
+        assert!(budgeted.probes.len() <= plain.probes.len() + 1);
+    }
+
+    #[test]
+    fn bad_regions_are_refused_with_the_reason() {
+        let scene = Scene::builtin("cornell").unwrap();
+        let run = |boxes: &[&str]| {
+            place(
+                &scene,
+                &PlaceOptions {
+                    region: Some(Region::parse_boxes(boxes).unwrap()),
+                    ..options(Method::Sdf)
+                },
+                None,
+            )
+        };
+        let outside = run(&["5,5,5:6,6,6"]).unwrap_err();
+        assert!(
+            matches!(
+                outside,
+                PlaceError::Region(RegionError::OutsideScene { index: 0, .. })
+            ),
+            "{outside}"
+        );
+        assert!(outside.to_string().contains("scene-info"), "{outside}");
+        // Inside the tall block: solid everywhere.
+        let solid = run(&["0.35,0.05,0.33:0.39,0.25,0.37"]).unwrap_err();
+        assert!(
+            matches!(solid, PlaceError::Region(RegionError::NoFreeSpace { .. })),
+            "{solid}"
+        );
+    }
+}

@@ -8,6 +8,7 @@ use probe_eval::EvalError;
 use probe_eval::lighting::place_lit;
 use probe_eval::top_view::{TopViewOptions, write_top_view};
 use probe_place::pipeline::{Method, Optimizer, PlaceOptions, Placement};
+use probe_place::region::Region;
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -68,6 +69,14 @@ pub struct Args {
     /// Surface samples (atlas texels) coverage is measured on.
     #[arg(long, default_value_t = 20_000)]
     pub texels: usize,
+    /// A region of interest, `x0,y0,z0:x1,y1,z1` (metres; repeat for a union of boxes):
+    /// probes only inside, coverage only of what a point inside can see.
+    #[arg(long, value_name = "BOX")]
+    pub region: Vec<String>,
+    /// Complete the coverage: add the free points (of the region) that see the most unseen
+    /// surface until every surface sample is seen (within `--budget`).
+    #[arg(long)]
+    pub complete: bool,
     /// Where to write the probes (`probes/1` JSON).
     #[arg(long)]
     pub out: PathBuf,
@@ -92,6 +101,20 @@ pub fn parse_dims(parameter: &'static str, text: &str) -> Result<[u32; 3], CliEr
     }
 }
 
+/// The `--region` boxes as a region (`None` without any).
+pub fn parse_region(boxes: &[String]) -> Result<Option<Region>, CliError> {
+    if boxes.is_empty() {
+        return Ok(None);
+    }
+    Region::parse_boxes(boxes)
+        .map(Some)
+        .map_err(|error| CliError::InvalidArgument {
+            parameter: "--region",
+            value: boxes.join(" "),
+            reason: error.to_string(),
+        })
+}
+
 /// Places the probes, writes them (and the pictures asked for) and reports.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let scene = open_scene(&args.scene)?;
@@ -114,6 +137,8 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         seed: args.seed,
         iterations: args.iterations,
         atlas_texels: args.texels,
+        region: parse_region(&args.region)?,
+        complete: args.complete,
         ..PlaceOptions::new(method)
     };
     let progress = spinner("placing");
@@ -129,7 +154,15 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         let bounds = scene.bounds();
         let view = TopViewOptions {
             // Cut just under the top so that ceilings and roofs do not hide the interior.
-            cut_height: Some(bounds.max.y - 0.05 * bounds.size().y),
+            // With a region, at its top: the floors viewers stand on.
+            cut_height: Some(
+                options
+                    .region
+                    .as_ref()
+                    .map_or(bounds.max.y - 0.05 * bounds.size().y, |r| {
+                        r.bounds().max.y.min(bounds.max.y)
+                    }),
+            ),
             number_probes: placed.probes.len() <= 200,
             caption: Some(format!(
                 "{}: {} probes, coverage {:.2} %",
@@ -137,6 +170,10 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 placed.probes.len(),
                 100.0 * placed.report.coverage
             )),
+            regions: options
+                .region
+                .as_ref()
+                .map_or_else(Vec::new, |r| r.boxes().to_vec()),
             ..TopViewOptions::default()
         };
         write_top_view(&scene, &placed.probes.positions, &view, png)?;
@@ -151,6 +188,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         probe_eval::write_atomic(path, text.as_bytes())?;
     }
     Ok(Box::new(PlaceSummary {
+        region: options.region.is_some(),
         placed,
         out: args.out.clone(),
         top_view: args.top_view.clone(),
@@ -159,6 +197,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
 
 struct PlaceSummary {
     placed: Placement,
+    region: bool,
     out: PathBuf,
     top_view: Option<PathBuf>,
 }
@@ -190,7 +229,7 @@ impl Report for PlaceSummary {
     fn text(&self) -> String {
         let r = &self.placed.report;
         let mut text = format!(
-            "method     {}\nprobes     {}\ncoverage   {:.2} % ({} of {} surface samples seen at view cosine > {}; {} unreachable from free space)\n\
+            "method     {}\nprobes     {}\ncoverage   {:.2} % ({} of {} surface samples seen at view cosine > {}; {} unreachable from {})\n\
              best view  mean cosine {:.3}\ninside     {} probes inside geometry, {} outside the bounds\ntime       {:.2} s (+{:.2} s free space and atlas)\nwrote      {}\n",
             r.method,
             r.probe_count,
@@ -199,6 +238,11 @@ impl Report for PlaceSummary {
             r.texels,
             r.min_view_cosine,
             r.unreachable_texels,
+            if self.region {
+                "the region's free space"
+            } else {
+                "free space"
+            },
             r.mean_best_view_cosine,
             r.probes_inside_geometry,
             r.probes_outside_bounds,

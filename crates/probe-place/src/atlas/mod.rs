@@ -432,6 +432,19 @@ impl<'a> Atlas<'a> {
         chunks.concat()
     }
 
+    /// Which of `texels` (indices into [`Atlas::samples`]) a probe at `probe` sees, in the
+    /// order given.
+    pub(crate) fn sees_texels(&self, probe: Vec3, texels: &[u32]) -> Vec<u32> {
+        texels
+            .iter()
+            .copied()
+            .filter(|&t| {
+                self.view_of(&self.samples[t as usize], t as usize, probe)
+                    .is_some()
+            })
+            .collect()
+    }
+
     /// [`Atlas::probe_views`] for many probes at once.
     pub fn views_of_probes(&self, probes: &[Vec3]) -> Vec<Vec<ProbeView>> {
         probes.iter().map(|p| self.probe_views(*p)).collect()
