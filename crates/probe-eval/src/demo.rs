@@ -57,6 +57,8 @@ pub struct DemoOptions {
     pub reference_noise_fraction: f64,
     /// The most shading samples per reference hit.
     pub reference_max_samples: u32,
+    /// A region of interest both placements stay in (`None`: the whole box).
+    pub region: Option<probe_place::region::Region>,
 }
 
 impl DemoOptions {
@@ -72,6 +74,7 @@ impl DemoOptions {
             gibbs_iterations: 30,
             reference_noise_fraction: 0.05,
             reference_max_samples: 2048,
+            region: None,
         }
     }
 }
@@ -322,9 +325,16 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             let mut o = PlaceOptions::new(Method::Sdf);
             o.optimize = Some(Optimizer::Gibbs);
             o.iterations = options.gibbs_iterations;
+            o.region = options.region.clone();
             o
         }),
-        ("grid 2x2x2", PlaceOptions::new(Method::Grid([2, 2, 2]))),
+        (
+            "grid 2x2x2",
+            PlaceOptions {
+                region: options.region.clone(),
+                ..PlaceOptions::new(Method::Grid([2, 2, 2]))
+            },
+        ),
     ];
     // Trace everything first; the reference is refined against the traced errors after.
     struct Pending {

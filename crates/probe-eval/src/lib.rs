@@ -90,6 +90,7 @@ pub mod metrics;
 pub mod pipeline;
 pub mod sweep;
 pub mod top_view;
+pub mod views;
 
 use std::path::PathBuf;
 
@@ -139,6 +140,9 @@ pub enum EvalError {
     /// A top view could not be drawn.
     #[error("top view: {0}")]
     TopView(#[from] top_view::TopViewError),
+    /// The view set could not be made.
+    #[error("view set: {0}")]
+    Views(#[from] views::ViewSetError),
     /// The configuration is invalid.
     #[error("configuration {}: {reason}", path.as_ref().map_or("(defaults)".to_owned(), |p| p.display().to_string()))]
     Config {

@@ -32,7 +32,10 @@ use crate::pipeline::{
     Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
     compare_trace, trace_only,
 };
+use crate::views::{ViewSetOptions, view_set};
 use crate::{EvalError, write_atomic};
+use probe_place::region::Region;
+use probe_trace_gpu::TraceRay;
 
 /// The sweep's configuration (`--config eval.toml`); every field has a default.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
@@ -86,6 +89,12 @@ pub struct EvalConfig {
     pub reference_noise_fraction: f64,
     /// The most shading samples per reference hit while refining.
     pub reference_max_samples: u32,
+    /// Viewpoints sampled in each scene's region (or free space) besides its cameras
+    /// ([`crate::views::view_set`]); a scene's own `views` overrides it. With more than one
+    /// view, every figure of the scene is the mean over its views, with the worst view beside it.
+    pub views: usize,
+    /// Seed of the sampled viewpoints (another seed gives a held-out view set).
+    pub view_seed: u64,
 }
 
 /// One scene of the sweep.
@@ -100,9 +109,36 @@ pub struct SceneConfig {
     /// Grid dimensions `NXxNYxNZ`; default from `grid_counts`.
     #[serde(default)]
     pub grids: Vec<String>,
-    /// Placements; default the configuration's `placements`.
+    /// Placements; default the configuration's `placements`. A `+complete` suffix
+    /// (`sdf+gibbs+complete`) completes the coverage ([`PlaceOptions::complete`]).
     #[serde(default)]
     pub placements: Vec<String>,
+    /// Where viewers go: boxes `x0,y0,z0:x1,y1,z1` (a union). Probes of every placement are
+    /// placed inside, grids divide the region's bounding box, coverage counts what the region
+    /// sees, and sampled views stand inside. Empty: the whole scene.
+    #[serde(default)]
+    pub region: Vec<String>,
+    /// Sampled viewpoints for this scene (default: the configuration's `views`).
+    #[serde(default)]
+    pub views: Option<usize>,
+}
+
+impl SceneConfig {
+    /// The scene's region, if it has one.
+    ///
+    /// # Errors
+    /// [`EvalError::Config`] naming the scene and the box.
+    pub fn region(&self) -> Result<Option<Region>, EvalError> {
+        if self.region.is_empty() {
+            return Ok(None);
+        }
+        Region::parse_boxes(&self.region)
+            .map(Some)
+            .map_err(|e| EvalError::Config {
+                path: None,
+                reason: format!("scene {}: {e}", self.scene),
+            })
+    }
 }
 
 fn default_cameras() -> Vec<String> {
@@ -140,6 +176,8 @@ impl Default for EvalConfig {
             scenes: Vec::new(),
             reference_noise_fraction: 0.05,
             reference_max_samples: 1024,
+            views: 0,
+            view_seed: 1,
         }
     }
 }
@@ -263,6 +301,109 @@ fn parse_dims(text: &str) -> Option<[u32; 3]> {
     (parts.len() == 3 && parts.iter().all(|&d| d > 0)).then(|| [parts[0], parts[1], parts[2]])
 }
 
+/// A trace waiting for its view's refined reference.
+struct Pending {
+    record: SweepRecord<()>,
+    traced: crate::pipeline::TracedView,
+    resolution: u32,
+    positions: Vec<Vec3>,
+}
+
+/// Per scene with more than one view, one record per placement, selection and tracer: the
+/// means over the views of every metric (each view weighs alike; rays are summed, times are
+/// per view), with the worst view's tone-mapped MSE beside them. Scenes judged from one view
+/// give none.
+pub fn mean_over_views(records: &[SweepRecord]) -> Vec<SweepRecord> {
+    let mut groups: BTreeMap<(&str, &str, &str, &str), Vec<&SweepRecord>> = BTreeMap::new();
+    let mut order = Vec::new();
+    for r in records {
+        let key = (
+            r.scene.as_str(),
+            r.placement.as_str(),
+            r.trace.selection.name(),
+            r.trace.tracer.name(),
+        );
+        let group = groups.entry(key).or_default();
+        if group.is_empty() {
+            order.push(key);
+        }
+        group.push(r);
+    }
+    let mut out = Vec::new();
+    for key in order {
+        let group = &groups[&key];
+        if group.len() < 2 {
+            continue;
+        }
+        let n = group.len() as f64;
+        let mean = |f: &dyn Fn(&TraceMetrics) -> f64| group.iter().map(|r| f(&r.trace)).sum::<f64>() / n;
+        let first = group[0];
+        let worst = group
+            .iter()
+            .max_by(|a, b| a.trace.mse_tonemapped.total_cmp(&b.trace.mse_tonemapped))
+            .map(|r| (r.camera.clone(), r.trace.mse_tonemapped));
+        let mut classes = first.trace.classes.clone();
+        for (k, class) in classes.iter_mut().enumerate() {
+            let share = |f: &dyn Fn(&crate::metrics::ClassShare) -> f64| {
+                group
+                    .iter()
+                    .filter_map(|r| r.trace.classes.get(k).map(f))
+                    .sum::<f64>()
+                    / n
+            };
+            class.pixels = share(&|c| c.pixels);
+            class.mse = share(&|c| c.mse);
+        }
+        let trace = TraceMetrics {
+            tracer: first.trace.tracer,
+            selection: first.trace.selection,
+            rays: group.iter().map(|r| r.trace.rays).sum(),
+            trace_ms: mean(&|t| t.trace_ms),
+            wall_ms: mean(&|t| t.wall_ms),
+            gpu_timestamps: group.iter().all(|r| r.trace.gpu_timestamps),
+            fetches_per_ray: mean(&|t| t.fetches_per_ray),
+            probes_per_ray: mean(&|t| t.probes_per_ray),
+            hit_rate: mean(&|t| t.hit_rate),
+            unknown_rate: mean(&|t| t.unknown_rate),
+            status_agreement: mean(&|t| t.status_agreement),
+            within_footprint: mean(&|t| t.within_footprint),
+            mean_position_error: mean(&|t| t.mean_position_error),
+            ray_mse: mean(&|t| t.ray_mse),
+            mse: mean(&|t| t.mse),
+            mse_tonemapped: mean(&|t| t.mse_tonemapped),
+            relative_mse: mean(&|t| t.relative_mse),
+            psnr: mean(&|t| t.psnr),
+            flip: mean(&|t| t.flip),
+            reference_noise: mean(&|t| t.reference_noise),
+            bake_noise: group
+                .iter()
+                .map(|r| r.trace.bake_noise)
+                .sum::<Option<f64>>()
+                .map(|sum| sum / n),
+            classes,
+        };
+        out.push(SweepRecord {
+            camera: format!("{} views", group.len()),
+            views: group.len(),
+            worst_view: worst,
+            trace,
+            ..first.clone()
+        });
+    }
+    out
+}
+
+/// The records a scene is judged by: its view set's means where it has one, else its
+/// camera's records.
+fn judged(records: &[SweepRecord], view_sets: &[SweepRecord]) -> Vec<SweepRecord> {
+    records
+        .iter()
+        .filter(|r| !view_sets.iter().any(|v| v.scene == r.scene))
+        .chain(view_sets)
+        .cloned()
+        .collect()
+}
+
 /// One placement of the sweep, resolved.
 #[derive(Clone, Debug, PartialEq)]
 struct PlacementSpec {
@@ -275,8 +416,9 @@ fn placement_specs(
     config: &EvalConfig,
     scene: &Scene,
     scene_config: &SceneConfig,
+    region: Option<&Region>,
 ) -> Result<Vec<PlacementSpec>, EvalError> {
-    let size = scene.bounds().size();
+    let size = region.map_or(scene.bounds(), Region::bounds).size();
     let grids: Vec<[u32; 3]> = if scene_config.grids.is_empty() {
         let mut dims: Vec<[u32; 3]> = config
             .grid_counts
@@ -305,6 +447,7 @@ fn placement_specs(
         iterations: config.gibbs_iterations,
         atlas_texels: config.atlas_texels,
         seed: config.view.seed,
+        region: region.cloned(),
         ..PlaceOptions::new(method)
     };
     let mut specs: Vec<PlacementSpec> = grids
@@ -321,13 +464,24 @@ fn placement_specs(
         &scene_config.placements
     };
     for text in placements {
-        let mut push = |family: &'static str, options: PlaceOptions| {
+        let (text, complete) = match text.strip_suffix("+complete") {
+            Some(base) => (base, true),
+            None => (text.as_str(), false),
+        };
+        let mut push = |family: &'static str, mut options: PlaceOptions| {
             let mut name = options.method.name();
             match options.optimize {
                 Some(Optimizer::Gibbs) => name.push_str("+gibbs"),
                 Some(Optimizer::Descent) => name.push_str("+descent"),
                 None => {}
             }
+            let family = if complete {
+                options.complete = true;
+                name.push_str("+complete");
+                "complete"
+            } else {
+                family
+            };
             if let Some(b) = options.budget {
                 name.push_str(&format!("@{b}"));
             }
@@ -337,7 +491,7 @@ fn placement_specs(
                 options,
             });
         };
-        match text.as_str() {
+        match text {
             "sdf" => push("sdf", with(Method::Sdf, None, None)),
             "sdf+gibbs" => push("sdf+gibbs", with(Method::Sdf, Some(Optimizer::Gibbs), None)),
             "sdf+descent" => push(
@@ -381,7 +535,8 @@ fn placement_specs(
                     return Err(config.invalid(format!(
                         "unknown placement {other:?} (expected sdf, sdf+gibbs, sdf+descent, medial, \
                          medial+gibbs, minimal, minimal@N, minimal@grids, spawn-merge, \
-                         gradient-ascent, grid-relocated@N or grid-relocated:NXxNYxNZ)"
+                         gradient-ascent, grid-relocated@N or grid-relocated:NXxNYxNZ, each \
+                         optionally with +complete)"
                     )));
                 }
             }
@@ -431,7 +586,11 @@ pub struct SweepRecord<T = TraceMetrics> {
     pub selection_mb: f64,
     /// The sum, MB.
     pub total_mb: f64,
-    /// The trace.
+    /// Views the figures are over: 1 for one camera's record, N for a view set's mean.
+    pub views: usize,
+    /// A view set's worst view (highest tone-mapped MSE) and its MSE; `None` for one view.
+    pub worst_view: Option<(String, f64)>,
+    /// The trace (for a view set: means over its views, [`mean_over_views`]).
     #[serde(flatten)]
     pub trace: T,
 }
@@ -456,6 +615,8 @@ impl SweepRecord<()> {
             other_mb: self.other_mb,
             selection_mb: self.selection_mb,
             total_mb: self.total_mb,
+            views: self.views,
+            worst_view: self.worst_view,
             trace,
         }
     }
@@ -468,8 +629,11 @@ pub struct SweepReport {
     pub config: EvalConfig,
     /// What traced the rays.
     pub device: String,
-    /// Every measured point.
+    /// Every measured point (one per camera or view).
     pub records: Vec<SweepRecord>,
+    /// Per scene with more than one view: each placement, selection and tracer's means over
+    /// the views ([`mean_over_views`]). The headline and the charts judge these scenes by them.
+    pub view_sets: Vec<SweepRecord>,
     /// Reference render seconds per scene and camera.
     pub reference_seconds: BTreeMap<String, f64>,
     /// The headline figures.
@@ -682,74 +846,67 @@ pub fn run_sweep(
     let mut files = Vec::new();
     for scene_config in &config.scenes {
         let scene = Scene::open(&scene_config.scene)?;
-        let specs = placement_specs(config, &scene, scene_config)?;
-        for camera_name in &scene_config.cameras {
-            let camera = if camera_name == "default" {
-                scene.default_camera()
-            } else {
-                scene.camera(camera_name).cloned().ok_or_else(|| {
-                    config.invalid(format!(
-                        "scene {} has no camera {camera_name:?}",
-                        scene_config.scene
-                    ))
-                })?
-            };
-            let settings = config.view;
+        let region = scene_config.region()?;
+        let specs = placement_specs(config, &scene, scene_config, region.as_ref())?;
+        let cameras = view_set(
+            &scene,
+            &ViewSetOptions {
+                cameras: scene_config.cameras.clone(),
+                sampled: scene_config.views.unwrap_or(config.views),
+                seed: config.view_seed,
+                region: region.clone(),
+            },
+        )?;
+        let mut views = Vec::with_capacity(cameras.len());
+        for camera in cameras {
             log(&format!("{} / {}: reference", scene.name(), camera.name));
-            let mut view = EvalView::render(&scene, camera, settings, &|_, _| {})?;
-            // Traced first; compared once the reference is refined against the traces.
-            let mut pending = Vec::new();
-            let rays = view.trace_rays();
-            for spec in &specs {
-                log(&format!(
-                    "{} / {}: {}",
-                    scene.name(),
-                    view.camera.name,
-                    spec.name
-                ));
-                let placed = place_lit(&scene, &spec.options)?;
-                let (baked, bake_seconds) = bake_for_view(
-                    &scene,
-                    &placed.probes.positions,
-                    config.resolution,
-                    config.sampling(),
-                    &view,
-                    &|_, _| {},
-                )?;
-                let grid = placed
-                    .full_grid
-                    .and_then(|_| ProbeGrid::detect(baked.positions()));
-                let index = match build_index(
-                    &scene,
-                    baked.positions(),
-                    config.svo_depth,
-                    grid,
-                    config.view.seed,
-                ) {
-                    Ok(index) => index,
-                    // A placement the index refuses (fewer than 4 probes, all coplanar) is
-                    // reported, not fatal to the sweep.
-                    Err(error) => {
-                        let line = format!(
-                            "{} / {} / {}: not indexed: {error}",
-                            scene.name(),
-                            view.camera.name,
-                            spec.name
-                        );
-                        log(&line);
-                        skipped.push(line);
-                        continue;
-                    }
-                };
-                let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
+            views.push(EvalView::render(&scene, camera, config.view, &|_, _| {})?);
+        }
+        let rays: Vec<Vec<TraceRay>> = views.iter().map(EvalView::trace_rays).collect();
+        // Traced first; compared once each view's reference is refined against its traces.
+        let mut pending: Vec<Vec<Pending>> = views.iter().map(|_| Vec::new()).collect();
+        for spec in &specs {
+            log(&format!("{}: {}", scene.name(), spec.name));
+            let placed = place_lit(&scene, &spec.options)?;
+            // One bake serves every view: the views share the scene's environment and seed.
+            let (baked, bake_seconds) = bake_for_view(
+                &scene,
+                &placed.probes.positions,
+                config.resolution,
+                config.sampling(),
+                &views[0],
+                &|_, _| {},
+            )?;
+            let grid = placed
+                .full_grid
+                .and_then(|_| ProbeGrid::detect(baked.positions()));
+            let index = match build_index(
+                &scene,
+                baked.positions(),
+                config.svo_depth,
+                grid,
+                config.view.seed,
+            ) {
+                Ok(index) => index,
+                // A placement the index refuses (fewer than 4 probes, all coplanar) is
+                // reported, not fatal to the sweep.
+                Err(error) => {
+                    let line = format!("{} / {}: not indexed: {error}", scene.name(), spec.name);
+                    log(&line);
+                    skipped.push(line);
+                    continue;
+                }
+            };
+            let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
+            for (v, view) in views.iter().enumerate() {
                 for &selection in &selections {
                     for &tracer in &tracers {
                         let Some(traced) = trace_only(
                             &mut device,
                             &baked,
                             &index,
-                            &view,
-                            &rays,
+                            view,
+                            &rays[v],
                             tracer,
                             selection,
                         )?
@@ -758,8 +915,6 @@ pub fn run_sweep(
                         };
                         let mb = |bytes: u64| bytes as f64 / 1e6;
                         let selection_mb = mb(selection.bytes(&index));
-                        // Compared once the reference is refined against every trace: the
-                        // record is completed with its metrics then.
                         let record = SweepRecord {
                             scene: scene.name().to_owned(),
                             camera: view.camera.name.clone(),
@@ -777,18 +932,22 @@ pub fn run_sweep(
                             other_mb: mb(memory.other_bytes),
                             selection_mb,
                             total_mb: mb(memory.distance_bytes + memory.other_bytes) + selection_mb,
+                            views: 1,
+                            worst_view: None,
                             trace: (),
                         };
-                        pending.push((
+                        pending[v].push(Pending {
                             record,
                             traced,
-                            baked.resolution(),
-                            baked.positions().to_vec(),
-                        ));
+                            resolution: baked.resolution(),
+                            positions: baked.positions().to_vec(),
+                        });
                     }
                 }
             }
-            let images: Vec<&Image> = pending.iter().map(|p| &p.1.image).collect();
+        }
+        for (view, pending) in views.iter_mut().zip(pending) {
+            let images: Vec<&Image> = pending.iter().map(|p| &p.traced.image).collect();
             let noise = view.refine(
                 &scene,
                 &images,
@@ -803,17 +962,17 @@ pub fn run_sweep(
                 noise.samples,
                 noise.noise
             ));
-            for (record, traced, resolution, positions) in pending {
+            for p in pending {
                 let footprints = Footprints {
-                    resolution,
-                    positions: &positions,
+                    resolution: p.resolution,
+                    positions: &p.positions,
                 };
                 // The bake's own estimate is a mean over its texels; an image inherits the
                 // noise of the texels it reads, 1.1× that mean on the Cornell box but 4–5× on
                 // Sponza (BENCHMARKS.md, "Bakes that converge"), so it is reported apart
                 // (`bake_texel_noise`) and the image's bake noise stays unmeasured here.
-                let (trace, _) = compare_trace(footprints, &view, &traced, None)?;
-                records.push(record.with_trace(trace));
+                let (trace, _) = compare_trace(footprints, view, &p.traced, None)?;
+                records.push(p.record.with_trace(trace));
             }
             reference_seconds.insert(
                 format!("{}/{}", scene.name(), view.camera.name),
@@ -831,11 +990,13 @@ pub fn run_sweep(
     } else {
         None
     };
-    let headline = headline(&records);
+    let view_sets = mean_over_views(&records);
+    let headline = headline(&judged(&records, &view_sets));
     let mut report = SweepReport {
         config: config.clone(),
         device: device.describe(),
         records,
+        view_sets,
         reference_seconds,
         headline,
         files: Vec::new(),
@@ -845,7 +1006,13 @@ pub fn run_sweep(
     };
     // The data first: a chart that fails must not lose the sweep.
     let csv = out.join("results.csv");
-    write_atomic(&csv, to_csv(&report.records).as_bytes())?;
+    let all: Vec<SweepRecord> = report
+        .records
+        .iter()
+        .chain(&report.view_sets)
+        .cloned()
+        .collect();
+    write_atomic(&csv, to_csv(&all).as_bytes())?;
     files.push(csv);
     let (charts, notes) = write_charts(&report, out)?;
     files.extend(charts);
@@ -870,13 +1037,13 @@ pub fn run_sweep(
 
 fn to_csv(records: &[SweepRecord]) -> String {
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise,views,worst_view,worst_view_mse_tonemapped\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{},{},{},{}",
             r.scene,
             r.camera,
             r.placement,
@@ -917,6 +1084,11 @@ fn to_csv(records: &[SweepRecord]) -> String {
             r.samples_per_texel,
             r.bake_texel_noise
                 .map_or(String::new(), |n| format!("{n:.6e}")),
+            r.views,
+            r.worst_view.as_ref().map_or("", |w| w.0.as_str()),
+            r.worst_view
+                .as_ref()
+                .map_or(String::new(), |w| format!("{:.6e}", w.1)),
         );
     }
     text
@@ -935,7 +1107,7 @@ fn slug(text: &str) -> String {
 }
 
 /// The chart families, in legend order.
-const FAMILIES: [&str; 9] = [
+const FAMILIES: [&str; 10] = [
     "grid",
     "grid-relocated",
     "sdf",
@@ -945,6 +1117,7 @@ const FAMILIES: [&str; 9] = [
     "medial+gibbs",
     "minimal",
     "minimal@N",
+    "complete",
 ];
 
 /// Writes the charts of every scene; returns the files and a note for each chart left out
@@ -956,12 +1129,17 @@ fn write_charts(
 ) -> Result<(Vec<PathBuf>, Vec<String>), EvalError> {
     let mut files = Vec::new();
     let mut notes = Vec::new();
-    let mut scenes: Vec<&str> = report.records.iter().map(|r| r.scene.as_str()).collect();
+    // A scene with a view set is charted by its means over the views.
+    let judged = judged(&report.records, &report.view_sets);
+    let mut scenes: Vec<&str> = judged.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     for scene in scenes {
-        let records: Vec<&SweepRecord> =
-            report.records.iter().filter(|r| r.scene == scene).collect();
-        let best = best_per_placement(&report.records, scene);
+        let records: Vec<&SweepRecord> = judged.iter().filter(|r| r.scene == scene).collect();
+        let best = best_per_placement(&judged, scene);
+        let over = records
+            .first()
+            .filter(|r| r.views > 1)
+            .map_or(String::new(), |r| format!(", mean of {} views", r.views));
         let family_series =
             |points: &dyn Fn(&SweepRecord) -> Option<Point>, all: bool| -> Vec<Series> {
                 FAMILIES
@@ -998,7 +1176,9 @@ fn write_charts(
         let charts = [
             (
                 "error_vs_time",
-                format!("{scene}: glossy error against trace time (every tracer and selection)"),
+                format!(
+                    "{scene}: glossy error against trace time (every tracer and selection{over})"
+                ),
                 "trace time (ms)",
                 family_series(
                     &|r| Some(Point::new(r.trace.trace_ms, r.trace.mse_tonemapped)),
@@ -1008,7 +1188,7 @@ fn write_charts(
             ),
             (
                 "error_vs_probes",
-                format!("{scene}: glossy error against probe count (best selection, hi-Z)"),
+                format!("{scene}: glossy error against probe count (best selection{over})"),
                 "probes",
                 family_series(
                     &|r| {
@@ -1024,7 +1204,7 @@ fn write_charts(
             ),
             (
                 "error_vs_memory",
-                format!("{scene}: glossy error against memory (probe textures + selection)"),
+                format!("{scene}: glossy error against memory (probe textures + selection{over})"),
                 "memory (MB)",
                 family_series(
                     &|r| Some(Point::new(r.total_mb, r.trace.mse_tonemapped)),
@@ -1223,6 +1403,39 @@ fn report_markdown(report: &SweepReport) -> String {
             "hi-Z texel fetches per ray / two-level's: median {median:.2}, range {min:.2}–{max:.2} (goal ≤ 0.4)."
         );
     }
+    if !report.view_sets.is_empty() {
+        let _ = writeln!(
+            text,
+            "\n## View sets\n\nScenes judged from several views: the headline and the charts use the mean over the views; the worst view is beside it.\n"
+        );
+        let _ = writeln!(
+            text,
+            "| scene | placement | probes | selection | trace algorithm | views | mean MSE (tone-mapped) | worst view | its MSE | mean reference noise | mean FLIP | mean UNKNOWN |"
+        );
+        let _ = writeln!(text, "|---|---|---:|---|---|---:|---:|---|---:|---:|---:|---:|");
+        for r in &report.view_sets {
+            let (worst, worst_mse) = r
+                .worst_view
+                .clone()
+                .unwrap_or_else(|| ("—".to_owned(), f64::NAN));
+            let _ = writeln!(
+                text,
+                "| {} | {} | {} | {} | {} | {} | {:.3e} | {} | {:.3e} | {:.1e} | {:.4} | {:.1} % |",
+                r.scene,
+                r.placement,
+                r.probes,
+                r.trace.selection.name(),
+                r.trace.tracer.name(),
+                r.views,
+                r.trace.mse_tonemapped,
+                worst,
+                worst_mse,
+                r.trace.reference_noise,
+                r.trace.flip,
+                100.0 * r.trace.unknown_rate
+            );
+        }
+    }
     // Seed 000 Table 5.1: time per placement and tracer.
     let _ = writeln!(
         text,
@@ -1230,17 +1443,18 @@ fn report_markdown(report: &SweepReport) -> String {
     );
     let _ = writeln!(
         text,
-        "| scene | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE | MSE (tone-mapped) | reference noise | bake noise | FLIP | status agreement |"
+        "| scene | camera | probes | placement | selection | trace algorithm | time (ms) | fetches/ray | probes/ray | MSE | MSE (tone-mapped) | reference noise | bake noise | FLIP | status agreement |"
     );
     let _ = writeln!(
         text,
-        "|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---|---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     for r in &report.records {
         let _ = writeln!(
             text,
-            "| {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} | {:.3e} | {:.1e} | {} | {:.4} | {:.1} % |",
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.3e} | {:.3e} | {:.1e} | {} | {:.4} | {:.1} % |",
             r.scene,
+            r.camera,
             r.probes,
             r.placement,
             r.trace.selection.name(),

@@ -21,6 +21,10 @@ pub struct Args {
     /// Image side in pixels.
     #[arg(long, default_value_t = 256)]
     pub size: u32,
+    /// A region of interest both placements stay in, `x0,y0,z0:x1,y1,z1` (repeat for a
+    /// union of boxes).
+    #[arg(long, value_name = "BOX")]
+    pub region: Vec<String>,
 }
 
 /// Runs the demo, logging each stage to stderr.
@@ -29,6 +33,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         require_gpu: args.require_gpu,
         resolution: args.res,
         image_size: args.size,
+        region: crate::commands::place::parse_region(&args.region)?,
         ..DemoOptions::new(&args.out)
     };
     let report = run_demo(&options, &|line| eprintln!("demo: {line}"))?;

@@ -27,6 +27,18 @@ pub struct Args {
     /// cases are skipped and the report says so.
     #[arg(long)]
     pub scenes_dir: Option<PathBuf>,
+    /// A region of interest for the scenes named on the command line, `x0,y0,z0:x1,y1,z1`
+    /// (repeat for a union of boxes); per scene in the configuration as `region = [...]`.
+    #[arg(long, value_name = "BOX")]
+    pub region: Vec<String>,
+    /// Viewpoints sampled in each scene's region (or free space) besides its cameras; every
+    /// figure is then the mean over the views, with the worst view beside it. Overrides the
+    /// configuration's `views`.
+    #[arg(long)]
+    pub views: Option<usize>,
+    /// Seed of the sampled viewpoints (another seed gives a held-out view set).
+    #[arg(long)]
+    pub view_seed: Option<u64>,
 }
 
 /// Runs the sweep, logging each step to stderr.
@@ -43,6 +55,23 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     {
         config.scenes_dir = Some(dir);
     }
+    if let Some(views) = args.views {
+        config.views = views;
+        for scene in &mut config.scenes {
+            scene.views = None;
+        }
+    }
+    if let Some(seed) = args.view_seed {
+        config.view_seed = seed;
+    }
+    if !args.region.is_empty() && args.scenes.is_empty() {
+        return Err(CliError::InvalidArgument {
+            parameter: "--region",
+            value: args.region.join(" "),
+            reason: "applies to the scenes named on the command line; name one, or set `region` per scene in the configuration".into(),
+        });
+    }
+    crate::commands::place::parse_region(&args.region)?;
     config
         .scenes
         .extend(args.scenes.iter().map(|scene| SceneConfig {
@@ -50,6 +79,8 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             cameras: vec!["default".into()],
             grids: Vec::new(),
             placements: Vec::new(),
+            region: args.region.clone(),
+            views: None,
         }));
     let report = run_sweep(&config, &args.out, &|line| eprintln!("eval: {line}"))?;
     Ok(Box::new(EvalSummary(report, args.out.clone())))
@@ -64,6 +95,7 @@ impl Report for EvalSummary {
             "out": self.1.display().to_string(),
             "device": self.0.device,
             "points": self.0.records.len(),
+            "view_sets": self.0.view_sets.len(),
             "headline": self.0.headline,
             "files": self.0.files,
             "seconds": self.0.seconds,
