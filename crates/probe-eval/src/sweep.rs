@@ -18,7 +18,7 @@ use probe_place::{
     atlas::{Atlas, AtlasParams, BackfaceVote, RewardWeights, free_space_grid},
     optimize::{DescentParams, GibbsParams, descend, gibbs},
 };
-use probe_scene::Scene;
+use probe_scene::{Camera, Scene};
 use serde::{Deserialize, Serialize};
 
 use probe_index::ProbeGrid;
@@ -35,6 +35,7 @@ use crate::pipeline::{
 use crate::views::{ViewSetOptions, view_set};
 use crate::{EvalError, write_atomic};
 use probe_place::region::Region;
+use probe_place::viewers::ViewProxy;
 use probe_trace_gpu::TraceRay;
 
 /// The sweep's configuration (`--config eval.toml`); every field has a default.
@@ -301,6 +302,12 @@ fn parse_dims(text: &str) -> Option<[u32; 3]> {
     (parts.len() == 3 && parts.iter().all(|&d| d > 0)).then(|| [parts[0], parts[1], parts[2]])
 }
 
+/// The seed of the view set `+views` placements learn from, for evaluation views seeded
+/// `seed`: never equal to it.
+pub fn training_seed(seed: u64) -> u64 {
+    seed ^ 0x7a11_5eed
+}
+
 /// A trace waiting for its view's refined reference.
 struct Pending {
     record: SweepRecord<()>,
@@ -336,7 +343,8 @@ pub fn mean_over_views(records: &[SweepRecord]) -> Vec<SweepRecord> {
             continue;
         }
         let n = group.len() as f64;
-        let mean = |f: &dyn Fn(&TraceMetrics) -> f64| group.iter().map(|r| f(&r.trace)).sum::<f64>() / n;
+        let mean =
+            |f: &dyn Fn(&TraceMetrics) -> f64| group.iter().map(|r| f(&r.trace)).sum::<f64>() / n;
         let first = group[0];
         let worst = group
             .iter()
@@ -410,6 +418,7 @@ struct PlacementSpec {
     name: String,
     family: &'static str,
     options: PlaceOptions,
+    target_error: Option<f32>,
 }
 
 fn placement_specs(
@@ -417,6 +426,7 @@ fn placement_specs(
     scene: &Scene,
     scene_config: &SceneConfig,
     region: Option<&Region>,
+    viewers: &[Camera],
 ) -> Result<Vec<PlacementSpec>, EvalError> {
     let size = region.map_or(scene.bounds(), Region::bounds).size();
     let grids: Vec<[u32; 3]> = if scene_config.grids.is_empty() {
@@ -456,6 +466,7 @@ fn placement_specs(
             name: Method::Grid(dims).name(),
             family: "grid",
             options: with(Method::Grid(dims), None, None),
+            target_error: None,
         })
         .collect();
     let placements = if scene_config.placements.is_empty() {
@@ -464,10 +475,22 @@ fn placement_specs(
         &scene_config.placements
     };
     for text in placements {
-        let (text, complete) = match text.strip_suffix("+complete") {
-            Some(base) => (base, true),
-            None => (text.as_str(), false),
+        let complete = text.contains("+complete");
+        let views = text.contains("+views");
+        let text = text.replace("+complete", "").replace("+views", "");
+        // `~E`: an error-driven target (the share of the views' points left unseen).
+        let (text, target_error) = match text.split_once('~') {
+            Some((base, e)) => match e.parse::<f32>() {
+                Ok(e) if (0.0..1.0).contains(&e) => (base.to_owned(), Some(e)),
+                _ => {
+                    return Err(config.invalid(format!(
+                        "placement target {e:?}: give a share of the views' points in [0, 1), e.g. minimal+views~0.05"
+                    )));
+                }
+            },
+            None => (text, None),
         };
+        let text = text.as_str();
         let mut push = |family: &'static str, mut options: PlaceOptions| {
             let mut name = options.method.name();
             match options.optimize {
@@ -475,20 +498,31 @@ fn placement_specs(
                 Some(Optimizer::Descent) => name.push_str("+descent"),
                 None => {}
             }
-            let family = if complete {
+            let mut family = family;
+            if views {
+                options.viewers = Some(viewers.to_vec());
+                name.push_str("+views");
+                family = "views";
+            }
+            if complete {
                 options.complete = true;
                 name.push_str("+complete");
-                "complete"
-            } else {
-                family
-            };
+                if !views {
+                    family = "complete";
+                }
+            }
             if let Some(b) = options.budget {
                 name.push_str(&format!("@{b}"));
+            }
+            if let Some(e) = target_error {
+                options.coverage = 1.0 - e;
+                name.push_str(&format!("~{e}"));
             }
             specs.push(PlacementSpec {
                 name,
                 family,
                 options,
+                target_error,
             });
         };
         match text {
@@ -536,7 +570,7 @@ fn placement_specs(
                         "unknown placement {other:?} (expected sdf, sdf+gibbs, sdf+descent, medial, \
                          medial+gibbs, minimal, minimal@N, minimal@grids, spawn-merge, \
                          gradient-ascent, grid-relocated@N or grid-relocated:NXxNYxNZ, each \
-                         optionally with +complete)"
+                         optionally with +views and +complete)"
                     )));
                 }
             }
@@ -590,6 +624,14 @@ pub struct SweepRecord<T = TraceMetrics> {
     pub views: usize,
     /// A view set's worst view (highest tone-mapped MSE) and its MSE; `None` for one view.
     pub worst_view: Option<(String, f64)>,
+    /// The cheap proxy of the glossy error over the scene's evaluation views
+    /// ([`probe_place::viewers::ViewProxy`]): the share of what they see, directly and in
+    /// reflection, that no probe sees well. `None` for a scene judged from one view.
+    pub view_proxy_error: Option<f64>,
+    /// For an error-driven set (`minimal+views~E`): the target E.
+    pub target_error: Option<f64>,
+    /// For a `+views` placement: the proxy on the view set it learnt from (1 − its coverage).
+    pub training_proxy_error: Option<f64>,
     /// The trace (for a view set: means over its views, [`mean_over_views`]).
     #[serde(flatten)]
     pub trace: T,
@@ -617,6 +659,9 @@ impl SweepRecord<()> {
             total_mb: self.total_mb,
             views: self.views,
             worst_view: self.worst_view,
+            view_proxy_error: self.view_proxy_error,
+            target_error: self.target_error,
+            training_proxy_error: self.training_proxy_error,
             trace,
         }
     }
@@ -662,6 +707,71 @@ pub struct Headline {
     pub hiz_time_ratio: Option<[f64; 3]>,
     /// hi-Z texel fetches per ray divided by two-level's (goal ≤ 0.4): median, min, max.
     pub hiz_fetch_ratio: Option<[f64; 3]>,
+    /// Per scene with a view set: Spearman's rank correlation between the view proxy and the
+    /// measured mean tone-mapped MSE over its placements (best selection and tracer of each),
+    /// with the number of placements ranked.
+    pub proxy_rank_correlation: BTreeMap<String, (f64, usize)>,
+    /// Error-driven sets: the target, the proxy on the views the set learnt from and on the
+    /// held-out evaluation views.
+    pub target_errors: Vec<TargetFigure>,
+}
+
+/// How an error-driven set met its target.
+#[derive(Clone, Debug, Serialize)]
+pub struct TargetFigure {
+    /// The scene.
+    pub scene: String,
+    /// The placement (`minimal+views~E`).
+    pub placement: String,
+    /// Its probes.
+    pub probes: usize,
+    /// The target E.
+    pub target: f64,
+    /// The proxy on the view set it learnt from.
+    pub training: f64,
+    /// The proxy on the held-out evaluation views.
+    pub held_out: f64,
+    /// held_out / target (goal ≤ 1.5).
+    pub ratio: f64,
+    /// The measured mean tone-mapped MSE over the evaluation views.
+    pub mse: f64,
+}
+
+/// Spearman's rank correlation of two equally long samples (average ranks for ties); `None`
+/// for fewer than 3 pairs or a constant sample.
+pub fn spearman(a: &[f64], b: &[f64]) -> Option<f64> {
+    let n = a.len().min(b.len());
+    if n < 3 {
+        return None;
+    }
+    let ranks = |v: &[f64]| -> Vec<f64> {
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        let mut r = vec![0.0; n];
+        let mut i = 0;
+        while i < n {
+            let mut j = i;
+            while j + 1 < n && v[order[j + 1]] == v[order[i]] {
+                j += 1;
+            }
+            let rank = 0.5 * (i + j) as f64;
+            for k in i..=j {
+                r[order[k]] = rank;
+            }
+            i = j + 1;
+        }
+        r
+    };
+    let (ra, rb) = (ranks(&a[..n]), ranks(&b[..n]));
+    let mean = (n as f64 - 1.0) / 2.0;
+    let (mut cov, mut va, mut vb) = (0.0, 0.0, 0.0);
+    for k in 0..n {
+        let (x, y) = (ra[k] - mean, rb[k] - mean);
+        cov += x * y;
+        va += x * x;
+        vb += y * y;
+    }
+    (va > 0.0 && vb > 0.0).then(|| cov / (va * vb).sqrt())
 }
 
 /// "Probes needed to match the best grid's MSE" for one scene.
@@ -791,6 +901,31 @@ fn headline(records: &[SweepRecord]) -> Headline {
             }
         }
         h.mse_at_equal_count.insert(scene.clone(), equal);
+        let ranked: Vec<(f64, f64)> = best
+            .iter()
+            .filter_map(|r| r.view_proxy_error.map(|p| (p, r.trace.mse_tonemapped)))
+            .collect();
+        let (proxy, mse): (Vec<f64>, Vec<f64>) = ranked.iter().copied().unzip();
+        if let Some(rho) = spearman(&proxy, &mse) {
+            h.proxy_rank_correlation
+                .insert(scene.clone(), (rho, ranked.len()));
+        }
+        for r in &best {
+            if let (Some(target), Some(training), Some(held_out)) =
+                (r.target_error, r.training_proxy_error, r.view_proxy_error)
+            {
+                h.target_errors.push(TargetFigure {
+                    scene: scene.clone(),
+                    placement: r.placement.clone(),
+                    probes: r.probes,
+                    target,
+                    training,
+                    held_out,
+                    ratio: held_out / target.max(f64::MIN_POSITIVE),
+                    mse: r.trace.mse_tonemapped,
+                });
+            }
+        }
     }
     let mut time_ratios = Vec::new();
     let mut fetch_ratios = Vec::new();
@@ -847,22 +982,46 @@ pub fn run_sweep(
     for scene_config in &config.scenes {
         let scene = Scene::open(&scene_config.scene)?;
         let region = scene_config.region()?;
-        let specs = placement_specs(config, &scene, scene_config, region.as_ref())?;
+        let sampled = scene_config.views.unwrap_or(config.views);
         let cameras = view_set(
             &scene,
             &ViewSetOptions {
                 cameras: scene_config.cameras.clone(),
-                sampled: scene_config.views.unwrap_or(config.views),
+                sampled,
                 seed: config.view_seed,
                 region: region.clone(),
             },
         )?;
+        // `+views` placements learn from a view set of their own (another seed), so that the
+        // views they are judged from are held out.
+        let training = view_set(
+            &scene,
+            &ViewSetOptions {
+                cameras: scene_config.cameras.clone(),
+                sampled: sampled.max(8),
+                seed: training_seed(config.view_seed),
+                region: region.clone(),
+            },
+        )?;
+        let specs = placement_specs(config, &scene, scene_config, region.as_ref(), &training)?;
         let mut views = Vec::with_capacity(cameras.len());
         for camera in cameras {
             log(&format!("{} / {}: reference", scene.name(), camera.name));
             views.push(EvalView::render(&scene, camera, config.view, &|_, _| {})?);
         }
         let rays: Vec<Vec<TraceRay>> = views.iter().map(EvalView::trace_rays).collect();
+        // The proxy over the evaluation views, to see how well it predicts their error.
+        let proxy = if views.len() > 1 {
+            let cameras: Vec<Camera> = views.iter().map(|v| v.camera.clone()).collect();
+            Some(ViewProxy::new(
+                &scene,
+                region.as_ref(),
+                &cameras,
+                config.atlas_texels.max(4 * cameras.len()),
+            )?)
+        } else {
+            None
+        };
         // Traced first; compared once each view's reference is refined against its traces.
         let mut pending: Vec<Vec<Pending>> = views.iter().map(|_| Vec::new()).collect();
         for spec in &specs {
@@ -898,6 +1057,7 @@ pub fn run_sweep(
                 }
             };
             let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
+            let view_proxy_error = proxy.as_ref().map(|p| p.error(baked.positions()));
             for (v, view) in views.iter().enumerate() {
                 for &selection in &selections {
                     for &tracer in &tracers {
@@ -934,6 +1094,13 @@ pub fn run_sweep(
                             total_mb: mb(memory.distance_bytes + memory.other_bytes) + selection_mb,
                             views: 1,
                             worst_view: None,
+                            view_proxy_error,
+                            target_error: spec.target_error.map(f64::from),
+                            training_proxy_error: spec
+                                .options
+                                .viewers
+                                .is_some()
+                                .then(|| 1.0 - placed.report.coverage),
                             trace: (),
                         };
                         pending[v].push(Pending {
@@ -1036,14 +1203,15 @@ pub fn run_sweep(
 }
 
 fn to_csv(records: &[SweepRecord]) -> String {
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise,views,worst_view,worst_view_mse_tonemapped\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise,views,worst_view,worst_view_mse_tonemapped,view_proxy_error,target_error,training_proxy_error\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{},{},{},{}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{},{},{},{},{},{},{}",
             r.scene,
             r.camera,
             r.placement,
@@ -1089,6 +1257,9 @@ fn to_csv(records: &[SweepRecord]) -> String {
             r.worst_view
                 .as_ref()
                 .map_or(String::new(), |w| format!("{:.6e}", w.1)),
+            opt(r.view_proxy_error),
+            opt(r.target_error),
+            opt(r.training_proxy_error),
         );
     }
     text
@@ -1107,7 +1278,7 @@ fn slug(text: &str) -> String {
 }
 
 /// The chart families, in legend order.
-const FAMILIES: [&str; 10] = [
+const FAMILIES: [&str; 11] = [
     "grid",
     "grid-relocated",
     "sdf",
@@ -1118,6 +1289,7 @@ const FAMILIES: [&str; 10] = [
     "minimal",
     "minimal@N",
     "complete",
+    "views",
 ];
 
 /// Writes the charts of every scene; returns the files and a note for each chart left out
@@ -1391,6 +1563,28 @@ fn report_markdown(report: &SweepReport) -> String {
             );
         }
     }
+    if !h.proxy_rank_correlation.is_empty() {
+        let _ = writeln!(
+            text,
+            "\nHow well the view proxy (share of what the evaluation views see, directly and in reflection, that no probe sees at a non-grazing angle) ranks the placements by their measured mean error:\n\n| scene | placements | Spearman ρ (proxy, MSE) |\n|---|---:|---:|"
+        );
+        for (scene, (rho, n)) in &h.proxy_rank_correlation {
+            let _ = writeln!(text, "| {scene} | {n} | {rho:.2} |");
+        }
+    }
+    if !h.target_errors.is_empty() {
+        let _ = writeln!(
+            text,
+            "\nError-driven sets (`~E`: the proxy's target) on the views they learnt from and on the held-out evaluation views:\n\n| scene | placement | probes | target | training proxy | held-out proxy | held-out / target (goal ≤ 1.5) | mean MSE |\n|---|---|---:|---:|---:|---:|---:|---:|"
+        );
+        for f in &h.target_errors {
+            let _ = writeln!(
+                text,
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.2} | {:.3e} |",
+                f.scene, f.placement, f.probes, f.target, f.training, f.held_out, f.ratio, f.mse
+            );
+        }
+    }
     if let Some([median, min, max]) = h.hiz_time_ratio {
         let _ = writeln!(
             text,
@@ -1412,7 +1606,10 @@ fn report_markdown(report: &SweepReport) -> String {
             text,
             "| scene | placement | probes | selection | trace algorithm | views | mean MSE (tone-mapped) | worst view | its MSE | mean reference noise | mean FLIP | mean UNKNOWN |"
         );
-        let _ = writeln!(text, "|---|---|---:|---|---|---:|---:|---|---:|---:|---:|---:|");
+        let _ = writeln!(
+            text,
+            "|---|---|---:|---|---|---:|---:|---|---:|---:|---:|---:|"
+        );
         for r in &report.view_sets {
             let (worst, worst_mse) = r
                 .worst_view

@@ -84,6 +84,16 @@ impl Default for ViewSetOptions {
     }
 }
 
+/// The names of the scene's own cameras (those of its file), or `default` when it has none.
+pub fn scene_cameras(scene: &Scene) -> Vec<String> {
+    let names: Vec<String> = scene.cameras().iter().map(|c| c.name.clone()).collect();
+    if names.is_empty() {
+        vec!["default".to_owned()]
+    } else {
+        names
+    }
+}
+
 /// Draws in `[0, 1)` from a counter-based hash (SplitMix64): the same seed and index give the
 /// same number on every machine.
 fn unit(seed: u64, index: u64) -> f32 {

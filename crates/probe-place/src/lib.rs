@@ -264,6 +264,7 @@ mod provenance;
 pub mod region;
 mod report;
 mod sdf;
+pub mod viewers;
 mod voxel;
 
 pub use probes::{PROBE_SET_FORMAT, ProbeSet, ProbeSetError};

@@ -29,6 +29,7 @@ use std::time::Instant;
 use crate::atlas::FreeSpace;
 pub use crate::provenance::PlaceProvenance;
 use crate::provenance::PlacementMethod;
+use crate::viewers::view_samples;
 use crate::{
     ProbeSet,
     atlas::{Atlas, AtlasParams, BackfaceVote, PlacementReport, VoxelFreeSpace, free_space_grid},
@@ -44,7 +45,7 @@ use crate::{
     region::{Region, RegionError, RegionFreeSpace},
 };
 use glam::Vec3;
-use probe_scene::Scene;
+use probe_scene::{Camera, Scene};
 
 /// Why a placement failed: the stage and its error.
 #[derive(Debug, thiserror::Error)]
@@ -185,6 +186,14 @@ pub struct PlaceOptions {
     /// reached by construction; the report's `unreachable_texels` counts the surfaces no free
     /// point (of the region) sees at a non-grazing angle.
     pub complete: bool,
+    /// A view set: when given, the atlas's texels are the points these cameras see directly
+    /// and in mirror reflection ([`view_samples`], about `atlas_texels` in all) instead of
+    /// equal-area samples, so surfaces weigh by how much the viewers see them, and coverage
+    /// is the share of what they see that some probe sees at a non-grazing angle — the cheap
+    /// proxy of their glossy error. With [`Method::Minimal`] this gives the error-driven sets:
+    /// greedy additions of the candidate that most lowers the proxy, then pruning of every
+    /// probe whose removal keeps the target (`coverage` = 1 − target error).
+    pub viewers: Option<Vec<Camera>>,
 }
 
 impl PlaceOptions {
@@ -203,6 +212,7 @@ impl PlaceOptions {
             step: None,
             region: None,
             complete: false,
+            viewers: None,
         }
     }
 }
@@ -383,11 +393,22 @@ pub fn place(
         Some(r) => RegularGrid::new(r.bounds(), dims),
         None => RegularGrid::over_scene(scene, dims),
     };
-    let atlas = Atlas::build(
-        scene,
-        &AtlasParams::for_texel_count(scene, options.atlas_texels),
-        &pool,
-    )?;
+    let atlas_params = AtlasParams::for_texel_count(scene, options.atlas_texels);
+    let atlas = match &options.viewers {
+        Some(cameras) => {
+            if cameras.is_empty() {
+                return Err(PlaceError::Invalid {
+                    parameter: "viewers",
+                    value: "[]".into(),
+                    reason: "give at least one camera, or None for equal-area texels",
+                });
+            }
+            let per_view = (options.atlas_texels / (2 * cameras.len())).max(16);
+            let samples = view_samples(scene, cameras, per_view);
+            Atlas::from_samples(scene, &atlas_params, samples, &pool)?
+        }
+        None => Atlas::build(scene, &atlas_params, &pool)?,
+    };
     let atlas_seconds = atlas_start.elapsed().as_secs_f64();
 
     let start = Instant::now();
@@ -532,6 +553,7 @@ pub fn place(
     let seconds = start.elapsed().as_secs_f64();
     run.budget = options.budget;
     run.region = region.clone();
+    run.viewers = options.viewers.as_ref().map(Vec::len);
     if options.coverage < 1.0 {
         run.coverage_target = Some(options.coverage);
     }

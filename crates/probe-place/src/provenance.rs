@@ -97,6 +97,8 @@ pub struct PlaceProvenance {
     pub region: Option<Region>,
     /// Probes added to complete the coverage ([`PlaceOptions::complete`](crate::pipeline::PlaceOptions::complete)).
     pub completed: Option<usize>,
+    /// The views whose seen points were the atlas ([`PlaceOptions::viewers`](crate::pipeline::PlaceOptions::viewers)).
+    pub viewers: Option<usize>,
 }
 
 impl PlaceProvenance {
@@ -115,6 +117,7 @@ impl PlaceProvenance {
             candidates: None,
             region: None,
             completed: None,
+            viewers: None,
         }
     }
 }
@@ -139,6 +142,9 @@ impl PlacementMethod {
                     Some((Optimizer::Gibbs, ..)) => name.push_str("+gibbs"),
                     Some((Optimizer::Descent, ..)) => name.push_str("+descent"),
                     None => {}
+                }
+                if run.viewers.is_some() {
+                    name.push_str("+views");
                 }
                 if run.completed.is_some() {
                     name.push_str("+complete");
@@ -198,6 +204,7 @@ impl PlacementMethod {
                     ("candidates", run.candidates),
                     ("budget", run.budget),
                     ("completed", run.completed),
+                    ("viewers", run.viewers),
                 ];
                 for (key, value) in counts {
                     if let Some(value) = value {

@@ -7,6 +7,7 @@ use crate::spec::open_scene;
 use probe_eval::EvalError;
 use probe_eval::lighting::place_lit;
 use probe_eval::top_view::{TopViewOptions, write_top_view};
+use probe_eval::views::{ViewSetOptions, scene_cameras, view_set};
 use probe_place::pipeline::{Method, Optimizer, PlaceOptions, Placement};
 use probe_place::region::Region;
 use serde_json::{Value, json};
@@ -77,6 +78,18 @@ pub struct Args {
     /// surface until every surface sample is seen (within `--budget`).
     #[arg(long)]
     pub complete: bool,
+    /// Judge surfaces by a view set: the scene's cameras and N viewpoints sampled in the
+    /// region (or free space); the atlas is what they see, directly and in reflection.
+    #[arg(long)]
+    pub views: Option<usize>,
+    /// Seed of the sampled viewpoints.
+    #[arg(long, default_value_t = 0)]
+    pub view_seed: u64,
+    /// Error-driven set (with `--method minimal` and `--views`): the share of what the views
+    /// see, directly and in reflection, that may stay unseen by every probe (the proxy of their
+    /// glossy error); sets `--coverage` to 1 − E.
+    #[arg(long, value_name = "E", conflicts_with = "coverage")]
+    pub target_error: Option<f32>,
     /// Where to write the probes (`probes/1` JSON).
     #[arg(long)]
     pub out: PathBuf,
@@ -133,13 +146,48 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             OptimizeArg::Descent => Optimizer::Descent,
         }),
         budget: args.budget,
-        coverage: args.coverage,
+        coverage: match args.target_error {
+            Some(e) if args.views.is_none() => {
+                return Err(CliError::InvalidArgument {
+                    parameter: "--target-error",
+                    value: e.to_string(),
+                    reason: "needs --views N: the error is that of a view set".into(),
+                });
+            }
+            Some(e) if !(0.0..1.0).contains(&e) => {
+                return Err(CliError::InvalidArgument {
+                    parameter: "--target-error",
+                    value: e.to_string(),
+                    reason: "a share of the seen points in [0, 1)".into(),
+                });
+            }
+            Some(e) => 1.0 - e,
+            None => args.coverage,
+        },
         seed: args.seed,
         iterations: args.iterations,
         atlas_texels: args.texels,
         region: parse_region(&args.region)?,
         complete: args.complete,
         ..PlaceOptions::new(method)
+    };
+    let options = PlaceOptions {
+        viewers: match args.views {
+            Some(sampled) => Some(
+                view_set(
+                    &scene,
+                    &ViewSetOptions {
+                        cameras: scene_cameras(&scene),
+                        sampled,
+                        seed: args.view_seed,
+                        region: options.region.clone(),
+                    },
+                )
+                .map_err(|e| CliError::Eval(e.into()))?,
+            ),
+            None => None,
+        },
+        ..options
     };
     let progress = spinner("placing");
     // Seed 002's methods get their lighting from probe-capture.

@@ -264,6 +264,54 @@ impl<'a> Atlas<'a> {
         Ok(atlas)
     }
 
+    /// An atlas whose texels are `samples` given by the caller (for instance the points a
+    /// view set sees, directly and in reflection: [`crate::viewers::view_samples`]) instead
+    /// of equal-area samples, kept, as in [`Atlas::build`], only where some reference point
+    /// sees them. A surface then weighs by how many samples fall on it: by how much viewers
+    /// see it, not by its area. `params.texel_size` is only reported.
+    ///
+    /// # Errors
+    /// As [`Atlas::build`]; [`AtlasError::EmptyScene`] for no sample.
+    pub fn from_samples(
+        scene: &'a Scene,
+        params: &AtlasParams,
+        samples: Vec<SurfaceSample>,
+        reference_points: &[Vec3],
+    ) -> Result<Atlas<'a>, AtlasError> {
+        check_params(params)?;
+        if reference_points.is_empty() {
+            return Err(AtlasError::NoReferencePoints);
+        }
+        if samples.is_empty() {
+            return Err(AtlasError::EmptyScene {
+                scene: scene.name().to_owned(),
+            });
+        }
+        let distance_scale = params
+            .max_distance
+            .unwrap_or_else(|| scene.bounds().size().length())
+            .max(f32::MIN_POSITIVE);
+        let mut atlas = Atlas {
+            scene,
+            params: *params,
+            samples,
+            unreachable: 0,
+            distance_scale,
+        };
+        let seen = atlas.seen_by_any(reference_points);
+        let before = atlas.samples.len();
+        let mut keep = seen.iter();
+        atlas.samples.retain(|_| *keep.next().unwrap_or(&false));
+        atlas.unreachable = before - atlas.samples.len();
+        if atlas.samples.is_empty() {
+            return Err(AtlasError::NothingVisible {
+                scene: scene.name().to_owned(),
+                reference_points: reference_points.len(),
+            });
+        }
+        Ok(atlas)
+    }
+
     /// Samples the surfaces of `scene` without the reachability filter: every front face
     /// (both faces of double-sided triangles) gets texels, even where no probe could see it.
     pub fn build_unfiltered(
