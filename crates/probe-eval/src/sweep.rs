@@ -1100,7 +1100,7 @@ pub fn run_sweep(
                                 .options
                                 .viewers
                                 .is_some()
-                                .then(|| 1.0 - placed.report.coverage),
+                                .then_some(1.0 - placed.report.coverage),
                             trace: (),
                         };
                         pending[v].push(Pending {

@@ -1,0 +1,128 @@
+//! The sweep over view sets (regions of interest, sampled viewpoints, error-driven sets):
+//! a small run on the built-in Cornell box.
+
+use probe_eval::sweep::{EvalConfig, SceneConfig, run_sweep, spearman};
+use probe_eval::views::{ViewSetOptions, view_set};
+use probe_scene::Scene;
+
+fn small_config() -> EvalConfig {
+    let mut config = EvalConfig {
+        resolution: 16,
+        samples_per_texel: 2,
+        max_samples_per_texel: 2,
+        atlas_texels: 600,
+        gibbs_iterations: 2,
+        tracers: vec!["hiz".into()],
+        selections: vec!["svo".into()],
+        grid_counts: vec![8],
+        placements: vec!["sdf".into(), "sdf+views~0.3".into()],
+        failure_suite: false,
+        views: 2,
+        view_seed: 5,
+        reference_max_samples: 8,
+        ..EvalConfig::default()
+    };
+    config.view.width = 32;
+    config.view.height = 24;
+    config.view.shading_samples = 2;
+    config.scenes.push(SceneConfig {
+        scene: "builtin:cornell".into(),
+        cameras: vec!["default".into()],
+        grids: Vec::new(),
+        placements: Vec::new(),
+        region: vec!["0.02,0.02,0.02:0.3,0.52,0.54".into()],
+        views: None,
+    });
+    config
+}
+
+#[test]
+fn a_scene_with_a_view_set_is_judged_by_its_mean_and_worst_view() {
+    let out = tempfile::tempdir().unwrap();
+    let report = run_sweep(&small_config(), out.path(), &|_| {}).unwrap();
+    // The default camera and two sampled views, three placements.
+    let cameras: std::collections::BTreeSet<&str> =
+        report.records.iter().map(|r| r.camera.as_str()).collect();
+    assert_eq!(cameras.len(), 3, "{cameras:?}");
+    assert_eq!(report.view_sets.len(), 3);
+    for set in &report.view_sets {
+        assert_eq!(set.views, 3);
+        let views: Vec<_> = report
+            .records
+            .iter()
+            .filter(|r| r.placement == set.placement)
+            .collect();
+        assert_eq!(views.len(), 3);
+        let mean = views.iter().map(|r| r.trace.mse_tonemapped).sum::<f64>() / 3.0;
+        assert!((set.trace.mse_tonemapped - mean).abs() <= 1e-12 * mean.max(1.0));
+        let (worst, worst_mse) = set.worst_view.clone().unwrap();
+        assert!(worst_mse >= set.trace.mse_tonemapped);
+        assert!(views.iter().any(|r| r.camera == worst));
+        assert_eq!(
+            set.trace.rays,
+            views.iter().map(|r| r.trace.rays).sum::<usize>()
+        );
+        let proxy = set.view_proxy_error.unwrap();
+        assert!((0.0..=1.0).contains(&proxy));
+    }
+    // The error-driven set is judged on views it did not learn from.
+    let target = &report.headline.target_errors;
+    assert_eq!(target.len(), 1, "{target:?}");
+    assert_eq!(target[0].target, 0.3f32 as f64);
+    assert!(target[0].training <= 0.3 + 1e-6, "{:?}", target[0]);
+    assert!(
+        report
+            .headline
+            .proxy_rank_correlation
+            .contains_key("cornell")
+    );
+    let csv = std::fs::read_to_string(out.path().join("results.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().contains("view_proxy_error"));
+    assert_eq!(csv.lines().count(), 1 + 9 + 3);
+    let markdown = std::fs::read_to_string(out.path().join("report.md")).unwrap();
+    assert!(markdown.contains("## View sets"));
+}
+
+#[test]
+fn a_bad_region_or_placement_target_is_refused_naming_it() {
+    let out = tempfile::tempdir().unwrap();
+    let mut config = small_config();
+    config.scenes[0].region = vec!["0,0,0:1,-1,1".into()];
+    let error = run_sweep(&config, out.path(), &|_| {}).unwrap_err();
+    assert!(error.to_string().contains("builtin:cornell"), "{error}");
+    assert!(error.to_string().contains("inverted"), "{error}");
+    let mut config = small_config();
+    config.placements = vec!["minimal+views~2".into()];
+    let error = run_sweep(&config, out.path(), &|_| {}).unwrap_err();
+    assert!(error.to_string().contains("minimal+views~0.05"), "{error}");
+}
+
+#[test]
+fn the_held_out_view_set_differs_from_the_training_one() {
+    let scene = Scene::builtin("cornell").unwrap();
+    let options = |seed| ViewSetOptions {
+        sampled: 3,
+        seed,
+        ..ViewSetOptions::default()
+    };
+    let eval = view_set(&scene, &options(5)).unwrap();
+    let training = view_set(&scene, &options(probe_eval::sweep::training_seed(5))).unwrap();
+    // The scene's camera is shared; the sampled viewpoints are not.
+    assert_eq!(eval[0], training[0]);
+    for (a, b) in eval[1..].iter().zip(&training[1..]) {
+        assert_ne!(a.position, b.position);
+    }
+}
+
+#[test]
+fn spearman_ranks() {
+    let a = [1.0, 2.0, 3.0, 4.0];
+    assert_eq!(spearman(&a, &[10.0, 20.0, 30.0, 40.0]), Some(1.0));
+    assert_eq!(spearman(&a, &[4.0, 3.0, 2.0, 1.0]), Some(-1.0));
+    // Monotone but not linear: still 1.
+    assert_eq!(spearman(&a, &[1.0, 8.0, 27.0, 1000.0]), Some(1.0));
+    assert_eq!(spearman(&a[..2], &[1.0, 2.0]), None);
+    assert_eq!(spearman(&a, &[1.0, 1.0, 1.0, 1.0]), None);
+    let tied = spearman(&a, &[1.0, 1.0, 2.0, 3.0]).unwrap();
+    assert!(tied > 0.9 && tied < 1.0, "{tied}");
+}
