@@ -249,19 +249,23 @@ impl<'a> Atlas<'a> {
             check_params(params)?;
             return Err(AtlasError::NoReferencePoints);
         }
-        let mut atlas = Atlas::build_unfiltered(scene, params)?;
-        let seen = atlas.seen_by_any(reference_points);
-        let before = atlas.samples.len();
+        Atlas::build_unfiltered(scene, params)?.keep_reachable(reference_points)
+    }
+
+    /// Drops the texels no reference point sees (counted in [`Atlas::unreachable_texels`]).
+    fn keep_reachable(mut self, reference_points: &[Vec3]) -> Result<Atlas<'a>, AtlasError> {
+        let seen = self.seen_by_any(reference_points);
+        let before = self.samples.len();
         let mut keep = seen.iter();
-        atlas.samples.retain(|_| *keep.next().unwrap_or(&false));
-        atlas.unreachable = before - atlas.samples.len();
-        if atlas.samples.is_empty() {
+        self.samples.retain(|_| *keep.next().unwrap_or(&false));
+        self.unreachable = before - self.samples.len();
+        if self.samples.is_empty() {
             return Err(AtlasError::NothingVisible {
-                scene: scene.name().to_owned(),
+                scene: self.scene.name().to_owned(),
                 reference_points: reference_points.len(),
             });
         }
-        Ok(atlas)
+        Ok(self)
     }
 
     /// An atlas whose texels are `samples` given by the caller (for instance the points a
@@ -287,29 +291,15 @@ impl<'a> Atlas<'a> {
                 scene: scene.name().to_owned(),
             });
         }
-        let distance_scale = params
-            .max_distance
-            .unwrap_or_else(|| scene.bounds().size().length())
-            .max(f32::MIN_POSITIVE);
-        let mut atlas = Atlas {
+        let distance_scale = distance_scale_of(scene, params);
+        Atlas {
             scene,
             params: *params,
             samples,
             unreachable: 0,
             distance_scale,
-        };
-        let seen = atlas.seen_by_any(reference_points);
-        let before = atlas.samples.len();
-        let mut keep = seen.iter();
-        atlas.samples.retain(|_| *keep.next().unwrap_or(&false));
-        atlas.unreachable = before - atlas.samples.len();
-        if atlas.samples.is_empty() {
-            return Err(AtlasError::NothingVisible {
-                scene: scene.name().to_owned(),
-                reference_points: reference_points.len(),
-            });
         }
-        Ok(atlas)
+        .keep_reachable(reference_points)
     }
 
     /// Samples the surfaces of `scene` without the reachability filter: every front face
@@ -380,10 +370,7 @@ impl<'a> Atlas<'a> {
                 scene: scene.name().to_owned(),
             });
         }
-        let distance_scale = params
-            .max_distance
-            .unwrap_or_else(|| scene.bounds().size().length())
-            .max(f32::MIN_POSITIVE);
+        let distance_scale = distance_scale_of(scene, params);
         Ok(Atlas {
             scene,
             params: *params,
@@ -557,6 +544,14 @@ impl<'a> Atlas<'a> {
         let seen = self.seen_by_any(probes);
         seen.iter().filter(|s| **s).count() as f64 / seen.len() as f64
     }
+}
+
+/// The distance limit if there is one, else the diagonal of the scene's bounds.
+fn distance_scale_of(scene: &Scene, params: &AtlasParams) -> f32 {
+    params
+        .max_distance
+        .unwrap_or_else(|| scene.bounds().size().length())
+        .max(f32::MIN_POSITIVE)
 }
 
 fn check_params(params: &AtlasParams) -> Result<(), AtlasError> {
