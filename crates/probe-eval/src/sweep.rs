@@ -1311,7 +1311,7 @@ fn write_charts(
         let over = records
             .first()
             .filter(|r| r.views > 1)
-            .map_or(String::new(), |r| format!(", mean of {} views", r.views));
+            .map_or(String::new(), |r| format!(", {} views", r.views));
         let family_series =
             |points: &dyn Fn(&SweepRecord) -> Option<Point>, all: bool| -> Vec<Series> {
                 FAMILIES
@@ -1360,7 +1360,7 @@ fn write_charts(
             ),
             (
                 "error_vs_probes",
-                format!("{scene}: glossy error against probe count (best selection{over})"),
+                format!("{scene}: error against probes (best selection{over})"),
                 "probes",
                 family_series(
                     &|r| {
