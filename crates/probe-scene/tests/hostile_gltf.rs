@@ -305,3 +305,45 @@ fn declared_size_over_the_limit_is_refused_before_decoding() {
     // Refused up front: decoding 44.7 M triangles would take far longer.
     assert!(start.elapsed().as_secs_f64() < 2.0);
 }
+
+/// Every shared failure file (and the published Sponza, which must be refused): loads, or is
+/// refused with one error line naming the file; never a panic.
+#[test]
+fn every_shared_failure_file_loads_or_is_refused_in_one_line() {
+    let root = probe_testdata::scene_path("failure_cases");
+    let mut files = vec![probe_testdata::scene_path("sponza/Sponza.gltf")];
+    let mut dirs = vec![root];
+    while let Some(dir) = dirs.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if path.extension().is_some_and(|e| e == "gltf" || e == "glb") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    assert!(files.len() >= 21, "{files:?}");
+    let mut refused = 0;
+    for file in &files {
+        match Scene::load(file) {
+            Ok(scene) => assert!(
+                scene
+                    .triangles()
+                    .iter()
+                    .all(|t| t.positions.iter().all(|p| p.is_finite())),
+                "{}",
+                file.display()
+            ),
+            Err(error) => {
+                refused += 1;
+                let text = error.to_string();
+                assert!(!text.contains('\n'), "{text}");
+                assert!(text.contains(&*file.to_string_lossy()), "{text}");
+            }
+        }
+    }
+    // The two invalid files and the published Sponza.
+    assert_eq!(refused, 3);
+}
