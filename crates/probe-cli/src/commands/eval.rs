@@ -2,6 +2,7 @@
 
 use crate::cli_error::CliError;
 use crate::output::Report;
+use crate::spec::MemoryArgs;
 use probe_eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -27,6 +28,43 @@ pub struct Args {
     /// cases are skipped and the report says so.
     #[arg(long)]
     pub scenes_dir: Option<PathBuf>,
+    /// The memory limit for the sweep's largest bake and its views.
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+}
+
+/// The sweep's largest single step, checked before it starts: the largest grid's bake at the
+/// configured resolution plus every view's rays and images.
+fn check_memory(config: &EvalConfig, args: &Args) -> Result<(), CliError> {
+    let grid_probes = |grid: &String| -> usize {
+        grid.split('x')
+            .map(|n| n.trim().parse::<usize>().unwrap_or(0))
+            .product()
+    };
+    let largest = config
+        .scenes
+        .iter()
+        .flat_map(|s| s.grids.iter().map(grid_probes))
+        .chain(config.grid_counts.iter().map(|&n| n as usize))
+        .max()
+        .unwrap_or(0);
+    let settings = probe_capture::BakeSettings {
+        resolution: config.resolution,
+        ..Default::default()
+    };
+    let views: u64 = config.scenes.iter().map(|s| s.cameras.len() as u64).sum();
+    let v = &config.view;
+    let per_view =
+        u64::from(v.width) * u64::from(v.height) * (96 + 160 * u64::from(v.rays_per_pixel.max(1)));
+    args.memory.limit().check(
+        format_args!(
+            "a sweep whose largest bake has {largest} probes at {}² and {views} view(s) of {}×{}",
+            config.resolution, v.width, v.height
+        ),
+        probe_capture::bake_memory_estimate(largest, &settings)
+            .saturating_add(views.saturating_mul(per_view)),
+    )?;
+    Ok(())
 }
 
 /// Runs the sweep, logging each step to stderr.
@@ -51,6 +89,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             grids: Vec::new(),
             placements: Vec::new(),
         }));
+    check_memory(&config, args)?;
     let report = run_sweep(&config, &args.out, &|line| eprintln!("eval: {line}"))?;
     Ok(Box::new(EvalSummary(report, args.out.clone())))
 }
