@@ -754,10 +754,10 @@ fn main() {
             Err(_) => {
                 let message = panic_message.lock().unwrap().clone();
                 let key = signature(&message);
-                if !crashes.contains_key(&key) {
+                if let std::collections::btree_map::Entry::Vacant(slot) = crashes.entry(key) {
                     let saved = save_case(&out.join("crashes"), &case, &message);
                     eprintln!("PANIC: {message}\n  input saved to {}", saved.display());
-                    crashes.insert(key, saved);
+                    slot.insert(saved);
                 }
             }
         }

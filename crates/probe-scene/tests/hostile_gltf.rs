@@ -170,6 +170,15 @@ fn dds_only_texture_is_decoded_for_its_mean() {
         "{:?}",
         scene.warnings()
     );
+    // A texture whose only source is the extension's is valid under it: no defect reported.
+    assert!(
+        !scene
+            .warnings()
+            .iter()
+            .any(|w| matches!(w, LoadWarning::UnreadDefect { .. })),
+        "{:?}",
+        scene.warnings()
+    );
 }
 
 // ---- strict ----

@@ -291,7 +291,8 @@ fn used_items(root: &gltf::json::Root) -> UsedItems {
 }
 
 /// Whether a schema problem at `json_path` lies in an item the loader never reads; if so,
-/// why going on is safe.
+/// why going on is safe (empty: it is no problem for this loader, e.g. a texture without
+/// `source` that a decoded format's extension gives its image).
 fn unread_item(json_path: &str, root: &gltf::json::Root, used: &UsedItems) -> Option<String> {
     if let Some(texture) = path_index(json_path, "textures[") {
         if used.textures.get(texture) == Some(&false) {
@@ -301,17 +302,12 @@ fn unread_item(json_path: &str, root: &gltf::json::Root, used: &UsedItems) -> Op
         }
         // A used texture without a valid `source` that is read from a decoded format's
         // extension instead.
+        // Not a defect at all: such a texture is valid under its extension (an empty
+        // reason means no warning).
         if json_path == format!("textures[{texture}].source")
             && texture_image_index(root, texture).is_some()
         {
-            return Some(format!(
-                "texture {texture} is read from its {} image",
-                DECODED_TEXTURE_FORMATS
-                    .iter()
-                    .map(|f| f.0)
-                    .collect::<Vec<_>>()
-                    .join("/")
-            ));
+            return Some(String::new());
         }
         return None;
     }
@@ -384,6 +380,9 @@ fn validate(
             continue;
         }
         if let Some(safe) = unread_item(&json_path, root, &used) {
+            if safe.is_empty() {
+                continue;
+            }
             warnings.push(LoadWarning::UnreadDefect {
                 item: json_path,
                 problem: error.to_string(),
