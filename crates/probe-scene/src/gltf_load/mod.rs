@@ -82,6 +82,22 @@ pub(crate) fn load(path: &Path, limit: MemoryLimit) -> Result<LoadedScene, LoadE
         path: path.to_owned(),
         source,
     })?;
+    // The gltf crate subtracts the 12-byte header from a GLB's declared length unchecked
+    // (found by fuzzing: an overflow panic with overflow checks on).
+    if bytes.starts_with(b"glTF") {
+        let declared = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        if declared.is_none_or(|length| length < 12) {
+            return Err(LoadError::NotGltf {
+                path: path.to_owned(),
+                message: format!(
+                    "GLB header declares a total length of {}, less than its own 12 bytes",
+                    declared.map_or_else(|| "nothing".to_owned(), |l| l.to_string())
+                ),
+            });
+        }
+    }
     let gltf =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| LoadError::NotGltf {
             path: path.to_owned(),
