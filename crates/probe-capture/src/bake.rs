@@ -6,6 +6,7 @@ use glam::{Vec2, Vec3};
 use probe_octa::{
     FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, Texel, irradiance_map, lobe_mean,
 };
+use probe_scene::memory::{MemoryExceeded, MemoryLimit};
 use probe_scene::{Ray, Scene};
 
 use crate::environment::Environment;
@@ -217,6 +218,29 @@ pub enum BakeError {
     /// The environment is unusable. Fix: see [`ShaderError`].
     #[error(transparent)]
     Shader(#[from] ShaderError),
+    /// The bake's estimated memory ([`bake_memory_estimate`]) exceeds the memory limit;
+    /// refused before any ray is traced. Fix: bake fewer probes or a lower resolution, or
+    /// raise the limit ([`bake_with_limit`], `--max-memory`) if the machine has the memory.
+    #[error(transparent)]
+    OverMemory(#[from] MemoryExceeded),
+}
+
+/// Bytes a bake holds per padded texel: radiance, normal and distance (28), the min/max
+/// pyramid (at most 11), their copies while the derived maps are gathered and while the EXR
+/// layers are written (39 more), and slack for the per-thread sample sums.
+const BYTES_PER_BAKE_TEXEL: u64 = 96;
+
+/// The memory a bake of `probes` probes with `settings` plans to use (its maps, their copies
+/// while saving, and the derived maps), in bytes: what [`bake_with_limit`] and
+/// [`ProbeBake::load_with_limit`](crate::ProbeBake::load_with_limit) compare with their limit
+/// before starting.
+pub fn bake_memory_estimate(probes: usize, settings: &BakeSettings) -> u64 {
+    let padded = |r: u32| (u64::from(r) + 2).pow(2);
+    let per_probe = padded(settings.resolution).saturating_mul(BYTES_PER_BAKE_TEXEL)
+        + 2 * (padded(settings.moments_resolution) * 8
+            + padded(settings.irradiance_resolution) * 12)
+        + 9 * 12;
+    (probes as u64).saturating_mul(per_probe)
 }
 
 fn invalid(parameter: &'static str, value: impl ToString, reason: &'static str) -> BakeError {
@@ -828,8 +852,31 @@ pub fn bake(
     settings: &BakeSettings,
     progress: Progress<'_>,
 ) -> Result<ProbeBake, BakeError> {
+    bake_with_limit(scene, positions, settings, MemoryLimit::machine(), progress)
+}
+
+/// [`bake`] with a memory limit other than the machine's ([`MemoryLimit::machine`]): a bake
+/// whose [`bake_memory_estimate`] exceeds `limit` is refused before any ray is traced.
+///
+/// # Errors
+/// As [`bake`]; [`BakeError::OverMemory`] with the estimate and the limit.
+pub fn bake_with_limit(
+    scene: &Scene,
+    positions: &[Vec3],
+    settings: &BakeSettings,
+    limit: MemoryLimit,
+    progress: Progress<'_>,
+) -> Result<ProbeBake, BakeError> {
     settings.validate()?;
     let layout = check_capture(positions, settings.resolution)?;
+    limit.check(
+        format_args!(
+            "a bake of {} probes at {}²",
+            positions.len(),
+            settings.resolution
+        ),
+        bake_memory_estimate(positions.len(), settings),
+    )?;
     let environment = settings
         .environment
         .unwrap_or_else(|| Environment::for_scene(scene));

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 use probe_octa::{OctaLayout, ShL2Rgb};
 use probe_scene::Scene;
+use probe_scene::memory::MemoryLimit;
 use serde::{Deserialize, Serialize};
 
 use crate::atomic;
@@ -173,6 +174,33 @@ pub enum BakeLoadError {
         layer: String,
         /// The channel's name.
         channel: String,
+    },
+    /// A texel of an EXR file is NaN or infinite (bakes hold only finite values; misses store
+    /// a finite sky distance). Fix: re-bake; the file is damaged or was edited.
+    #[error(
+        "{}: layer {layer:?} channel {channel:?} holds a non-finite value at texel {texel}",
+        path.display()
+    )]
+    NonFiniteTexel {
+        /// The file.
+        path: PathBuf,
+        /// The layer's name.
+        layer: String,
+        /// The channel's name.
+        channel: String,
+        /// The first offending texel (row-major index in the layer).
+        texel: usize,
+    },
+    /// The bake the manifest describes would not fit the memory limit
+    /// ([`bake_memory_estimate`](crate::bake_memory_estimate)); refused before any EXR is
+    /// read. Fix: check the manifest (a damaged probe count or resolution gives this), or
+    /// raise the limit ([`ProbeBake::load_with_limit`], `--max-memory`).
+    #[error("{}: {source}", path.display())]
+    OverMemory {
+        /// The manifest's path.
+        path: PathBuf,
+        /// The estimate and the limit.
+        source: probe_scene::memory::MemoryExceeded,
     },
     /// An EXR layer has another size than the manifest implies, or a channel is not stored
     /// as 32-bit float. Fix: re-bake; the file does not belong to this manifest.
@@ -588,6 +616,20 @@ impl ProbeBake {
     /// [`BakeLoadError::SceneMismatch`] for another scene, and the other variants of
     /// [`BakeLoadError`] for missing, damaged or inconsistent files.
     pub fn load(dir: impl AsRef<Path>, scene: Option<&Scene>) -> Result<ProbeBake, BakeLoadError> {
+        ProbeBake::load_with_limit(dir, scene, MemoryLimit::machine())
+    }
+
+    /// [`ProbeBake::load`] with a memory limit other than the machine's: a manifest whose
+    /// probe count and resolutions would not fit `limit` is refused
+    /// ([`BakeLoadError::OverMemory`]) before any EXR file is read.
+    ///
+    /// # Errors
+    /// As [`ProbeBake::load`].
+    pub fn load_with_limit(
+        dir: impl AsRef<Path>,
+        scene: Option<&Scene>,
+        limit: MemoryLimit,
+    ) -> Result<ProbeBake, BakeLoadError> {
         let dir = dir.as_ref();
         let manifest_path = dir.join(MANIFEST_FILE);
         let text = std::fs::read_to_string(&manifest_path).map_err(|source| BakeLoadError::Io {
@@ -650,6 +692,18 @@ impl ProbeBake {
             check_manifest(&manifest).map_err(|reason| BakeLoadError::InvalidManifest {
                 path: manifest_path.clone(),
                 reason,
+            })?;
+        limit
+            .check(
+                format_args!(
+                    "loading a bake of {} probes at {}²",
+                    manifest.probe_count, manifest.resolution
+                ),
+                crate::bake::bake_memory_estimate(manifest.probe_count, &checked.settings),
+            )
+            .map_err(|source| BakeLoadError::OverMemory {
+                path: manifest_path.clone(),
+                source,
             })?;
         let probes = manifest.probe_count;
         let n = manifest.resolution as usize;
@@ -939,6 +993,14 @@ fn take_channels<const K: usize>(
                 path,
                 layer: layer_name.to_owned(),
                 reason: format!("channel {name:?} is not stored as 32-bit float"),
+            });
+        }
+        if let Some(texel) = samples.iter().position(|v| !v.is_finite()) {
+            return Err(BakeLoadError::NonFiniteTexel {
+                path,
+                layer: layer_name.to_owned(),
+                channel: name.to_owned(),
+                texel,
             });
         }
         channels.push(samples.clone());

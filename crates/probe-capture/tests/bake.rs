@@ -612,3 +612,27 @@ fn previews_are_written() {
     assert!(paths.radiance.ends_with("probe0001_radiance.png"));
     assert!(probes.write_previews(3, dir.path()).is_err());
 }
+
+#[test]
+fn bake_over_the_memory_limit_is_refused_before_tracing() {
+    let scene = cornell();
+    let settings = BakeSettings {
+        resolution: 1024,
+        ..small_settings()
+    };
+    let positions = vec![Vec3::splat(0.25); 64];
+    let estimate = probe_capture::bake_memory_estimate(positions.len(), &settings);
+    // 64 probes at 1026² padded texels, 96 bytes each: over 6 GiB.
+    assert!(estimate > 6 << 30, "{estimate}");
+    let limit = probe_scene::memory::MemoryLimit::bytes(1 << 30);
+    let start = std::time::Instant::now();
+    let error = probe_capture::bake_with_limit(&scene, &positions, &settings, limit, &no_progress)
+        .unwrap_err();
+    assert!(matches!(error, BakeError::OverMemory(_)), "{error:?}");
+    let text = error.to_string();
+    assert!(
+        text.contains("64 probes at 1024²") && text.contains("1.0 GiB"),
+        "{text}"
+    );
+    assert!(start.elapsed().as_secs_f64() < 1.0);
+}

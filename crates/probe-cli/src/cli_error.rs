@@ -40,6 +40,9 @@ pub enum CliError {
     /// An evaluation step failed.
     #[error(transparent)]
     Eval(#[from] probe_eval::EvalError),
+    /// The request would exceed the memory limit (`--max-memory`, or the machine's memory).
+    #[error(transparent)]
+    Memory(#[from] probe_scene::memory::MemoryExceeded),
     /// A command-line value could not be understood.
     #[error("invalid {parameter} {value:?}: {reason}")]
     InvalidArgument {

@@ -3,10 +3,55 @@
 use crate::cli_error::CliError;
 use probe_place::ProbeSet;
 use probe_scene::Scene;
+use probe_scene::memory::MemoryLimit;
 
-/// Opens a scene given as a glTF path or `builtin:NAME`.
+/// Opens a scene given as a glTF path or `builtin:NAME`, printing its load warnings to
+/// stderr (`probes: warning: …`, one line each).
 pub fn open_scene(spec: &str) -> Result<Scene, CliError> {
-    Ok(Scene::open(spec)?)
+    open_scene_with_limit(spec, MemoryLimit::machine())
+}
+
+/// [`open_scene`] with a memory limit (`--max-memory`).
+pub fn open_scene_with_limit(spec: &str, limit: MemoryLimit) -> Result<Scene, CliError> {
+    let scene = Scene::open_with_limit(spec, limit)?;
+    for warning in scene.warnings() {
+        eprintln!("probes: warning: {}: {warning}", scene.name());
+    }
+    Ok(scene)
+}
+
+/// The scene's load warnings for `--json` reports.
+pub fn warnings_json(scene: &Scene) -> serde_json::Value {
+    serde_json::Value::from(
+        scene
+            .warnings()
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>(),
+    )
+}
+
+/// `--max-memory`, shared by the commands that allocate.
+#[derive(clap::Args, Debug)]
+pub struct MemoryArgs {
+    /// The most memory the command may plan to use (e.g. `16G`, `512M`): a request
+    /// estimated above it (scene triangles, bake resolution × probes, octree depth, image and
+    /// rays) is refused before work starts. Default: the machine's memory (`MemTotal` of
+    /// /proc/meminfo; 8 GiB where it cannot be read).
+    #[arg(long, value_parser = parse_memory)]
+    pub max_memory: Option<u64>,
+}
+
+fn parse_memory(text: &str) -> Result<u64, String> {
+    probe_scene::memory::parse_size(text).map_err(|e| e.to_string())
+}
+
+impl MemoryArgs {
+    /// The limit: `--max-memory` if given, else the machine's.
+    pub fn limit(&self) -> MemoryLimit {
+        self.max_memory
+            .map_or_else(MemoryLimit::machine, MemoryLimit::bytes)
+    }
 }
 
 /// Reads probe positions from a `probes/1` JSON file or the shorthand `grid:NXxNYxNZ`

@@ -184,6 +184,28 @@ struct Level {
     refs: Vec<u32>,
 }
 
+impl SvoOptions {
+    /// A rough upper estimate of the memory [`SparseVoxelOctree::build`] takes for a scene of
+    /// `triangles` triangles at this depth, in bytes, for refusing a depth before building:
+    /// a surface-adaptive octree subdivides only voxels that hold geometry, about
+    /// `(surface area / cube face area) · 4^level` of them per level; this assumes 24 faces'
+    /// worth (a scene's surfaces rarely exceed that: a closed room has 6) at 48 bytes a node,
+    /// plus one 4-byte triangle reference per triangle and level.
+    pub fn memory_estimate(&self, triangles: usize) -> u64 {
+        let mut nodes: u64 = 0;
+        for level in 0..=self.max_depth.min(31) {
+            let full = 8u64.saturating_pow(level);
+            let surface = 24u64.saturating_mul(4u64.saturating_pow(level));
+            nodes = nodes.saturating_add(full.min(surface));
+        }
+        nodes.saturating_mul(48).saturating_add(
+            (triangles as u64)
+                .saturating_mul(u64::from(self.max_depth) + 1)
+                .saturating_mul(4),
+        )
+    }
+}
+
 impl SparseVoxelOctree {
     /// Builds the octree for `probes` in `geometry`.
     ///

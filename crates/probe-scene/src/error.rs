@@ -45,8 +45,12 @@ pub enum LoadError {
     },
 
     /// The file lists an extension in `extensionsRequired` that this crate cannot honour
-    /// (it honours `KHR_lights_punctual`, `KHR_materials_emissive_strength` and
-    /// `EXT_mesh_gpu_instancing`).
+    /// (it honours `KHR_lights_punctual`, `KHR_materials_emissive_strength`,
+    /// `EXT_mesh_gpu_instancing` and, with the `dds` feature, `MSFT_texture_dds`), and some
+    /// item of the file uses it: mesh compression (`KHR_draco_mesh_compression`,
+    /// `EXT_meshopt_compression`) that is not decoded, material models that change colour.
+    /// A required extension no item uses is only a warning
+    /// ([`LoadWarning::RequiredExtensionUnused`]).
     ///
     /// Fix: use a variant of the asset that does not need the extension (for Crytek Sponza,
     /// `Sponza_basecolor.gltf` instead of `Sponza.gltf`), or convert it with a tool such as
@@ -163,7 +167,8 @@ pub enum LoadError {
         vertex_count: usize,
     },
 
-    /// An image a material needs cannot be decoded (only PNG and JPEG are decoded).
+    /// An image a material needs cannot be decoded (PNG, JPEG and, with the `dds` feature,
+    /// DDS are decoded).
     ///
     /// Fix: convert the image to PNG or JPEG, or repair it.
     #[error("{path}: image {image} ({uri}) cannot be decoded: {message}")]
@@ -241,6 +246,20 @@ pub enum LoadError {
         path: PathBuf,
     },
 
+    /// The file declares more triangles (accessor counts times node instances) than the
+    /// memory limit holds; refused before any mesh is decoded.
+    ///
+    /// Fix: check the file (a damaged accessor count or instance list gives this), split the
+    /// scene, or raise the limit ([`Scene::load_with_limit`](crate::Scene::load_with_limit),
+    /// `--max-memory`) if the machine has the memory.
+    #[error("{path}: {source}")]
+    TooLarge {
+        /// The scene file.
+        path: PathBuf,
+        /// The estimate and the limit.
+        source: crate::memory::MemoryExceeded,
+    },
+
     /// The loaded data could not be assembled into a scene.
     ///
     /// Fix: see the inner [`BuildError`].
@@ -266,6 +285,18 @@ pub enum BuildError {
         triangle: usize,
         /// `"position"`, `"normal"` or `"uv"`.
         attribute: &'static str,
+    },
+
+    /// A triangle has a position coordinate beyond ±[`MAX_COORDINATE`](crate::MAX_COORDINATE)
+    /// (10^18 m), where the BVH's surface-area arithmetic overflows.
+    ///
+    /// Fix: the mesh is damaged or its units are wrong; repair or rescale it.
+    #[error("triangle {triangle} has a position coordinate beyond ±{limit:e} m")]
+    PositionOutOfRange {
+        /// The triangle's index.
+        triangle: usize,
+        /// The limit, [`MAX_COORDINATE`](crate::MAX_COORDINATE).
+        limit: f32,
     },
 
     /// A triangle names a material that does not exist.
@@ -401,6 +432,33 @@ pub enum LoadWarning {
     /// The file names no default scene; its first scene (or, without scenes, all root nodes)
     /// was loaded.
     NoDefaultScene,
+    /// The glTF schema is broken in an item the loader never reads (a texture no material
+    /// slot it reads uses, pointing at an image that does not exist; a normal map's dangling
+    /// index), so the defect cannot change the scene. A file that every mainstream viewer
+    /// opens is not refused for it.
+    UnreadDefect {
+        /// The JSON path of the defect, e.g. `textures[3].source`.
+        item: String,
+        /// What the validator reports, e.g. `Index out of bounds`.
+        problem: String,
+        /// Why it cannot change the scene.
+        safe: String,
+    },
+    /// An extension listed in `extensionsRequired` that this crate does not implement, but
+    /// that no item of the file uses (e.g. `MSFT_texture_dds` in a file without textures), so
+    /// there is nothing it could change.
+    RequiredExtensionUnused {
+        /// The extension's name.
+        extension: String,
+    },
+    /// An image in a format other than PNG or JPEG (DDS, for `MSFT_texture_dds`) was decoded
+    /// for the mean colour (or alpha mask) the material keeps.
+    DecodedImageFormat {
+        /// The image's index.
+        image: usize,
+        /// The format, e.g. `DDS`.
+        format: String,
+    },
 }
 
 impl fmt::Display for LoadWarning {
@@ -450,6 +508,22 @@ impl fmt::Display for LoadWarning {
                 write!(f, "camera {camera:?} skipped: {reason}")
             }
             LoadWarning::IgnoredFeature { feature } => write!(f, "ignored: {feature}"),
+            LoadWarning::UnreadDefect {
+                item,
+                problem,
+                safe,
+            } => write!(
+                f,
+                "{item}: {problem}; ignored, as the loader never reads it ({safe})"
+            ),
+            LoadWarning::RequiredExtensionUnused { extension } => write!(
+                f,
+                "required extension {extension} is not implemented but no item of the file uses it, so it cannot change the scene"
+            ),
+            LoadWarning::DecodedImageFormat { image, format } => write!(
+                f,
+                "image {image} is {format}; decoded for the material's mean colour or alpha mask"
+            ),
             LoadWarning::NoDefaultScene => {
                 write!(
                     f,

@@ -84,6 +84,7 @@ mod geometry;
 mod gltf_load;
 mod light;
 mod material;
+pub mod memory;
 mod scene;
 
 pub use builtin::BUILTIN_SCENES;
@@ -92,7 +93,7 @@ pub use error::{BuildError, LoadError, LoadWarning};
 pub use geometry::{Aabb, Hit, Ray, Triangle};
 pub use light::Light;
 pub use material::{AlphaMode, AlphaTexture, Material, TextureWrap};
-pub use scene::{Scene, SceneSource};
+pub use scene::{MAX_COORDINATE, Scene, SceneSource};
 
 /// Re-exported so that users need not match this crate's `glam` version by hand.
 pub use glam;

@@ -5,6 +5,7 @@ use crate::error::{BuildError, LoadError, LoadWarning};
 use crate::geometry::{Aabb, Hit, Ray, Triangle};
 use crate::light::Light;
 use crate::material::{AlphaMode, Material};
+use crate::memory::MemoryLimit;
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
@@ -21,6 +22,14 @@ use std::sync::OnceLock;
 
 /// The most triangles a scene may hold (one bit of the BVH's triangle ids flags alpha masks).
 pub(crate) const MAX_TRIANGLES: usize = (1 << 31) - 1;
+/// The largest coordinate magnitude a vertex may have, in metres. Beyond it the BVH builder's
+/// surface areas (products of two extents) overflow `f32` and its build goes wrong (found by
+/// fuzzing: a vertex at 1.3e31 broke obvhs's wide-BVH conversion). 10^18 m is a hundred light
+/// years; no scene's geometry is there.
+pub const MAX_COORDINATE: f32 = 1.0e18;
+/// The memory a loaded triangle takes, for the up-front check of a file's declared size: the
+/// [`Triangle`] itself, its BVH share while the BVH is built, and the decoded vertices.
+pub(crate) const BYTES_PER_TRIANGLE: u64 = size_of::<Triangle>() as u64 + 160;
 /// Set in a BVH slot's id when the triangle's material is an alpha mask.
 const MASKED: u32 = 1 << 31;
 
@@ -112,8 +121,16 @@ impl Scene {
     /// Needs the `gltf` feature (on by default).
     #[cfg(feature = "gltf")]
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, LoadError> {
+        Scene::load_with_limit(path, MemoryLimit::machine())
+    }
+
+    /// [`Scene::load`] with a memory limit other than the machine's: a file whose accessor
+    /// counts declare more triangles than `limit` holds is refused
+    /// ([`LoadError::TooLarge`]) before any mesh is decoded.
+    #[cfg(feature = "gltf")]
+    pub fn load_with_limit(path: impl AsRef<Path>, limit: MemoryLimit) -> Result<Scene, LoadError> {
         let path = path.as_ref();
-        let loaded = crate::gltf_load::load(path)?;
+        let loaded = crate::gltf_load::load(path, limit)?;
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_owned(), |s| s.to_string_lossy().into_owned());
@@ -160,14 +177,23 @@ impl Scene {
     /// [`Scene::load`]. Built without the `gltf` feature, a path is
     /// [`LoadError::LoaderDisabled`].
     pub fn open(spec: &str) -> Result<Scene, LoadError> {
+        Scene::open_with_limit(spec, MemoryLimit::machine())
+    }
+
+    /// [`Scene::open`] with a memory limit for files ([`Scene::load_with_limit`]); built-in
+    /// scenes are small and ignore it.
+    pub fn open_with_limit(spec: &str, limit: MemoryLimit) -> Result<Scene, LoadError> {
         match spec.strip_prefix("builtin:") {
             Some(name) => Scene::builtin(name),
             #[cfg(feature = "gltf")]
-            None => Scene::load(spec),
+            None => Scene::load_with_limit(spec, limit),
             #[cfg(not(feature = "gltf"))]
-            None => Err(LoadError::LoaderDisabled {
-                path: PathBuf::from(spec),
-            }),
+            None => {
+                let _ = limit;
+                Err(LoadError::LoaderDisabled {
+                    path: PathBuf::from(spec),
+                })
+            }
         }
     }
 
@@ -650,6 +676,15 @@ fn check_triangles(triangles: &[Triangle], material_count: usize) -> Result<(), 
         };
         if !t.positions.iter().all(|p| p.is_finite()) {
             return Err(non_finite("position"));
+        }
+        if t.positions
+            .iter()
+            .any(|p| p.abs().max_element() > MAX_COORDINATE)
+        {
+            return Err(BuildError::PositionOutOfRange {
+                triangle: index,
+                limit: MAX_COORDINATE,
+            });
         }
         if !t.normals.iter().all(|n| n.is_finite()) {
             return Err(non_finite("normal"));

@@ -4,8 +4,8 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
-use crate::spec::{SunArgs, open_scene, probe_set};
-use probe_capture::{BakeSettings, ProbeBake, Sampling, bake};
+use crate::spec::{MemoryArgs, SunArgs, open_scene_with_limit, probe_set, warnings_json};
+use probe_capture::{BakeSettings, ProbeBake, Sampling, bake_with_limit};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -50,11 +50,15 @@ pub struct Args {
     /// Also write PNG previews (radiance, normal, distance) of this probe into the bake folder.
     #[arg(long)]
     pub preview_probe: Option<usize>,
+    /// The memory limit.
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
 
 /// Bakes the probes and saves the bake.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
-    let scene = open_scene(&args.scene)?;
+    let limit = args.memory.limit();
+    let scene = open_scene_with_limit(&args.scene, limit)?;
     let probes = probe_set(&args.probes, &scene)?;
     let settings = BakeSettings {
         resolution: args.res,
@@ -73,7 +77,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         progress.set_length(total as u64);
         progress.set_position(done as u64);
     };
-    let baked = bake(&scene, &probes.positions, &settings, &on_progress);
+    let baked = bake_with_limit(&scene, &probes.positions, &settings, limit, &on_progress);
     progress.finish_and_clear();
     let baked = baked?;
     let bake_seconds = start.elapsed().as_secs_f64();
@@ -85,6 +89,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     };
     Ok(Box::new(BakeSummary {
         scene: scene.name().to_owned(),
+        scene_warnings: warnings_json(&scene),
         out: args.out.clone(),
         bake_seconds,
         save_seconds: save_start.elapsed().as_secs_f64(),
@@ -95,6 +100,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
 
 struct BakeSummary {
     scene: String,
+    scene_warnings: Value,
     out: PathBuf,
     baked: ProbeBake,
     bake_seconds: f64,
@@ -131,6 +137,7 @@ impl Report for BakeSummary {
         json!({
             "command": "bake",
             "scene": self.scene,
+            "scene_warnings": self.scene_warnings,
             "out": self.out.display().to_string(),
             "probes": self.baked.probe_count(),
             "resolution": s.resolution,

@@ -2,6 +2,7 @@
 
 use crate::cli_error::CliError;
 use crate::output::Report;
+use crate::spec::MemoryArgs;
 use probe_eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -39,6 +40,48 @@ pub struct Args {
     /// Seed of the sampled viewpoints (another seed gives a held-out view set).
     #[arg(long)]
     pub view_seed: Option<u64>,
+    /// The memory limit for the sweep's largest bake and its views.
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+}
+
+/// The sweep's largest single step, checked before it starts: the largest grid's bake at the
+/// configured resolution plus every view's rays and images.
+fn check_memory(config: &EvalConfig, args: &Args) -> Result<(), CliError> {
+    let grid_probes = |grid: &String| -> usize {
+        grid.split('x')
+            .map(|n| n.trim().parse::<usize>().unwrap_or(0))
+            .product()
+    };
+    let largest = config
+        .scenes
+        .iter()
+        .flat_map(|s| s.grids.iter().map(grid_probes))
+        .chain(config.grid_counts.iter().map(|&n| n as usize))
+        .max()
+        .unwrap_or(0);
+    let settings = probe_capture::BakeSettings {
+        resolution: config.resolution,
+        ..Default::default()
+    };
+    let views: u64 = config
+        .scenes
+        .iter()
+        .map(|s| (s.cameras.len() + s.views.unwrap_or(config.views)) as u64)
+        .max()
+        .unwrap_or(0);
+    let v = &config.view;
+    let per_view =
+        u64::from(v.width) * u64::from(v.height) * (96 + 160 * u64::from(v.rays_per_pixel.max(1)));
+    args.memory.limit().check(
+        format_args!(
+            "a sweep whose largest bake has {largest} probes at {}² and {views} view(s) of a scene at {}×{}",
+            config.resolution, v.width, v.height
+        ),
+        probe_capture::bake_memory_estimate(largest, &settings)
+            .saturating_add(views.saturating_mul(per_view)),
+    )?;
+    Ok(())
 }
 
 /// Runs the sweep, logging each step to stderr.
@@ -82,6 +125,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             region: args.region.clone(),
             views: None,
         }));
+    check_memory(&config, args)?;
     let report = run_sweep(&config, &args.out, &|line| eprintln!("eval: {line}"))?;
     Ok(Box::new(EvalSummary(report, args.out.clone())))
 }

@@ -5,7 +5,7 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::spinner;
-use crate::spec::{camera, open_scene};
+use crate::spec::{MemoryArgs, camera, open_scene_with_limit, warnings_json};
 use glam::Vec3;
 use probe_capture::Image;
 use probe_capture::{ProbeBake, accumulate_rays, reflection_rays, render_gbuffer};
@@ -26,7 +26,7 @@ pub enum TracerArg {
 }
 
 /// Selections on the command line.
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SelectArg {
     /// The regular grid's 8-cage (the bake's probes must be a regular grid).
     Grid,
@@ -95,11 +95,30 @@ pub struct Args {
     /// Also write a tone-mapped PNG.
     #[arg(long)]
     pub png: Option<PathBuf>,
+    /// The memory limit.
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
+
+/// Bytes per pixel of the G-buffer and the image, and per reflection ray of the rays, the
+/// trace results and their radiance.
+const BYTES_PER_PIXEL: u64 = 96;
+const BYTES_PER_RAY: u64 = 160;
 
 /// Renders and reports.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
-    let loaded_without_check = ProbeBake::load(&args.bake, None)?;
+    let limit = args.memory.limit();
+    let pixels = u64::from(args.width) * u64::from(args.height);
+    limit.check(
+        format_args!(
+            "a {}×{} render with {} ray(s) per pixel",
+            args.width, args.height, args.rays_per_pixel
+        ),
+        pixels.saturating_mul(
+            BYTES_PER_PIXEL + BYTES_PER_RAY.saturating_mul(u64::from(args.rays_per_pixel)),
+        ),
+    )?;
+    let loaded_without_check = ProbeBake::load_with_limit(&args.bake, None, limit)?;
     let scene_spec = match (&args.scene, loaded_without_check.scene_source()) {
         (Some(spec), _) => spec.clone(),
         (None, Some(source)) => source.to_owned(),
@@ -111,8 +130,19 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             });
         }
     };
-    let scene = open_scene(&scene_spec)?;
-    let baked = ProbeBake::load(&args.bake, Some(&scene))?;
+    let scene = open_scene_with_limit(&scene_spec, limit)?;
+    if args.select == SelectArg::Svo {
+        let options = probe_index::SvoOptions {
+            max_depth: args.svo_depth,
+            ..probe_index::SvoOptions::default()
+        };
+        limit.check(
+            format_args!("an octree of depth {}", args.svo_depth),
+            options.memory_estimate(scene.triangles().len()),
+        )?;
+    }
+    drop(loaded_without_check);
+    let baked = ProbeBake::load_with_limit(&args.bake, Some(&scene), limit)?;
     let camera = camera(&scene, &args.camera)?;
     let (mut device, fallback) = if args.cpu {
         (Device::cpu(), None)
@@ -128,6 +158,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         "scene": scene.name(),
         "bake": args.bake.display().to_string(),
         "camera": camera.name,
+        "scene_warnings": warnings_json(&scene),
         "device": device.describe(),
         "cpu_fallback_reason": fallback,
         "width": args.width,

@@ -2,7 +2,7 @@
 
 use crate::cli_error::CliError;
 use crate::output::Report;
-use crate::spec::open_scene;
+use crate::spec::MemoryArgs;
 use probe_scene::{AlphaMode, Light, Scene};
 use serde_json::{Value, json};
 use std::fmt::Write as _;
@@ -14,12 +14,16 @@ pub struct Args {
     /// A glTF 2.0 file (.gltf or .glb) or `builtin:NAME` (cornell, colonnade, boxes,
     /// leak-closed, leak-gap).
     pub scene: String,
+    /// The memory limit for the scene's declared size.
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
 
 /// Loads the scene and summarises it.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let start = Instant::now();
-    let scene = open_scene(&args.scene)?;
+    // The warnings are part of the report, not printed to stderr as the other commands do.
+    let scene = Scene::open_with_limit(&args.scene, args.memory.limit())?;
     let load_seconds = start.elapsed().as_secs_f64();
     Ok(Box::new(SceneInfo {
         scene,

@@ -5,7 +5,7 @@
 //! A needed image that is missing is an error naming its URI (see `LoadError::MissingFile`):
 //! silently falling back to the factor alone would change the scene's colours.
 
-use super::{alpha_mode_without_texture, read_uri};
+use super::{alpha_mode_without_texture, read_uri, texture_image_index};
 use crate::error::{LoadError, LoadWarning};
 use crate::material::{AlphaMode, AlphaTexture, Material, TextureWrap};
 use glam::Vec3;
@@ -22,12 +22,29 @@ struct Rgba8 {
 
 struct ImageCache<'a> {
     path: &'a Path,
+    document: &'a gltf::Document,
+    warnings: &'a mut Vec<LoadWarning>,
     base: &'a Path,
     buffers: &'a [Vec<u8>],
     decoded: HashMap<usize, Arc<Rgba8>>,
 }
 
 impl ImageCache<'_> {
+    /// The decoded image a texture reads (its `source`, or a decoded format's extension
+    /// source; see `texture_image_index`).
+    fn texture(&mut self, texture: &gltf::Texture<'_>) -> Result<Arc<Rgba8>, LoadError> {
+        let image = texture_image_index(self.document.as_json(), texture.index())
+            .and_then(|index| self.document.images().nth(index))
+            .ok_or_else(|| LoadError::Invalid {
+                path: self.path.to_owned(),
+                problems: format!(
+                    "textures[{}] has no image this loader can read (no valid `source`)",
+                    texture.index()
+                ),
+            })?;
+        self.get(&image)
+    }
+
     fn get(&mut self, image: &gltf::Image<'_>) -> Result<Arc<Rgba8>, LoadError> {
         if let Some(done) = self.decoded.get(&image.index()) {
             return Ok(Arc::clone(done));
@@ -64,6 +81,12 @@ impl ImageCache<'_> {
             },
             message: e.to_string(),
         })?;
+        if bytes.starts_with(b"DDS ") {
+            self.warnings.push(LoadWarning::DecodedImageFormat {
+                image: image.index(),
+                format: "DDS".to_owned(),
+            });
+        }
         let rgba = decoded.to_rgba8();
         let image_data = Arc::new(Rgba8 {
             width: rgba.width(),
@@ -132,6 +155,8 @@ pub(crate) fn load_materials(
     let linear = |b: u8| f32::from(b) / 255.0;
     let mut cache = ImageCache {
         path,
+        document,
+        warnings: &mut *warnings,
         base,
         buffers,
         decoded: HashMap::new(),
@@ -145,14 +170,14 @@ pub(crate) fn load_materials(
         let factor = pbr.base_color_factor();
         let mut alpha = alpha_mode_without_texture(&material);
         if alpha == AlphaMode::Blend {
-            warnings.push(LoadWarning::BlendTreatedAsOpaque {
+            cache.warnings.push(LoadWarning::BlendTreatedAsOpaque {
                 material: name.clone(),
             });
         }
         let mut base_color = Vec3::new(factor[0], factor[1], factor[2]);
         if let Some(info) = pbr.base_color_texture() {
             let texture = info.texture();
-            let image = cache.get(&texture.source())?;
+            let image = cache.texture(&texture)?;
             let mean = match &mut alpha {
                 AlphaMode::Mask {
                     cutoff,
@@ -189,7 +214,7 @@ pub(crate) fn load_materials(
         let mut metallic = pbr.metallic_factor();
         let mut roughness = pbr.roughness_factor();
         if let Some(info) = pbr.metallic_roughness_texture() {
-            let image = cache.get(&info.texture().source())?;
+            let image = cache.texture(&info.texture())?;
             if let Some(mean) = mean_rgb(&image, linear, |_| true) {
                 roughness *= mean.y;
                 metallic *= mean.z;
@@ -200,7 +225,7 @@ pub(crate) fn load_materials(
         if emissive != Vec3::ZERO
             && let Some(info) = material.emissive_texture()
         {
-            let image = cache.get(&info.texture().source())?;
+            let image = cache.texture(&info.texture())?;
             emissive *= mean_rgb(&image, |b| srgb[b as usize], |_| true).unwrap_or(Vec3::ONE);
         }
         materials.push(Material {

@@ -14,6 +14,7 @@ use crate::error::{LoadError, LoadWarning};
 use crate::geometry::Triangle;
 use crate::light::Light;
 use crate::material::{AlphaMode, Material};
+use crate::memory::MemoryLimit;
 use accessor::{AccessorProblem, read_f32, read_indices};
 use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::Dimensions;
@@ -59,6 +60,7 @@ struct Skipped {
 
 struct Loader<'a> {
     path: &'a Path,
+    limit: MemoryLimit,
     base: PathBuf,
     document: &'a gltf::Document,
     buffers: Vec<Vec<u8>>,
@@ -75,11 +77,27 @@ struct Loader<'a> {
 }
 
 /// Loads a `.gltf` or `.glb` file.
-pub(crate) fn load(path: &Path) -> Result<LoadedScene, LoadError> {
+pub(crate) fn load(path: &Path, limit: MemoryLimit) -> Result<LoadedScene, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Read {
         path: path.to_owned(),
         source,
     })?;
+    // The gltf crate subtracts the 12-byte header from a GLB's declared length unchecked
+    // (found by fuzzing: an overflow panic with overflow checks on).
+    if bytes.starts_with(b"glTF") {
+        let declared = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        if declared.is_none_or(|length| length < 12) {
+            return Err(LoadError::NotGltf {
+                path: path.to_owned(),
+                message: format!(
+                    "GLB header declares a total length of {}, less than its own 12 bytes",
+                    declared.map_or_else(|| "nothing".to_owned(), |l| l.to_string())
+                ),
+            });
+        }
+    }
     let gltf =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| LoadError::NotGltf {
             path: path.to_owned(),
@@ -87,13 +105,20 @@ pub(crate) fn load(path: &Path) -> Result<LoadedScene, LoadError> {
         })?;
     let gltf::Gltf { document, blob } = gltf;
     let mut warnings = Vec::new();
-    check_extensions(path, &document, &mut warnings)?;
+    let json =
+        gltf::json::serialize::to_value(document.as_json()).map_err(|e| LoadError::NotGltf {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
+    check_extensions(path, &document, &json, &mut warnings)?;
+    drop(json);
     validate(path, &document, &mut warnings)?;
 
     let base = path.parent().map(Path::to_owned).unwrap_or_default();
     let buffers = load_buffers(path, &base, &document, blob)?;
     let mut loader = Loader {
         path,
+        limit,
         base,
         document: &document,
         buffers,
@@ -150,28 +175,176 @@ pub(crate) fn load(path: &Path) -> Result<LoadedScene, LoadError> {
     })
 }
 
+/// Texture-format extensions this loader can decode for the mean colour it keeps (through
+/// the `image` crate's decoders), with the cargo feature that enables each.
+pub(crate) const DECODED_TEXTURE_FORMATS: &[(&str, bool)] =
+    &[("MSFT_texture_dds", cfg!(feature = "dds"))];
+
+/// Extensions that change how existing items are read without adding data of their own, so
+/// their absence from every item says nothing: they stay refused when required.
+const EXTENSIONS_WITHOUT_DATA: &[&str] = &["KHR_mesh_quantization"];
+
+/// Whether any `extensions` object of the document (at any depth) holds `extension`.
+fn extension_present(value: &gltf::json::Value, extension: &str) -> bool {
+    match value {
+        gltf::json::Value::Object(map) => map.iter().any(|(key, child)| {
+            (key == "extensions"
+                && child
+                    .as_object()
+                    .is_some_and(|extensions| extensions.contains_key(extension)))
+                || extension_present(child, extension)
+        }),
+        gltf::json::Value::Array(items) => items.iter().any(|c| extension_present(c, extension)),
+        _ => false,
+    }
+}
+
 fn check_extensions(
     path: &Path,
     document: &gltf::Document,
+    json: &gltf::json::Value,
     warnings: &mut Vec<LoadWarning>,
 ) -> Result<(), LoadError> {
-    if let Some(extension) = document
-        .extensions_required()
-        .find(|e| !HONOURED_EXTENSIONS.contains(e))
-    {
+    for extension in document.extensions_required() {
+        if HONOURED_EXTENSIONS.contains(&extension) {
+            continue;
+        }
+        let decoded = DECODED_TEXTURE_FORMATS
+            .iter()
+            .any(|&(name, enabled)| name == extension && enabled);
+        if decoded {
+            // Honoured: textures that carry it are decoded (see `images`).
+            continue;
+        }
+        if !EXTENSIONS_WITHOUT_DATA.contains(&extension) && !extension_present(json, extension) {
+            warnings.push(LoadWarning::RequiredExtensionUnused {
+                extension: extension.to_owned(),
+            });
+            continue;
+        }
         return Err(LoadError::UnsupportedExtension {
             path: path.to_owned(),
             extension: extension.to_owned(),
         });
     }
     for extension in document.extensions_used() {
-        if !HONOURED_EXTENSIONS.contains(&extension) {
+        let required = document.extensions_required().any(|r| r == extension);
+        if !HONOURED_EXTENSIONS.contains(&extension) && !required {
             warnings.push(LoadWarning::IgnoredExtension {
                 extension: extension.to_owned(),
             });
         }
     }
     Ok(())
+}
+
+/// The index in `json_path` after `prefix` (`textures[3].source` → 3 for `textures[`).
+fn path_index(json_path: &str, prefix: &str) -> Option<usize> {
+    let rest = json_path.strip_prefix(prefix)?;
+    rest[..rest.find(']')?].parse().ok()
+}
+
+/// The textures, images and samplers the loader reads: those of the base-colour,
+/// metallic-roughness and emissive slots of some material (normal and occlusion maps are
+/// never opened). Only indices that exist are listed.
+struct UsedItems {
+    textures: Vec<bool>,
+    images: Vec<bool>,
+    samplers: Vec<bool>,
+}
+
+/// The image a texture is read from: its `source`, or for a texture without a valid one its
+/// `MSFT_texture_dds` source where DDS is decoded. `None` when it has neither.
+pub(crate) fn texture_image_index(root: &gltf::json::Root, texture: usize) -> Option<usize> {
+    let texture = root.textures.get(texture)?;
+    let source = texture.source.value();
+    if source < root.images.len() {
+        return Some(source);
+    }
+    let extensions = texture.extensions.as_ref()?;
+    DECODED_TEXTURE_FORMATS
+        .iter()
+        .filter(|&&(_, enabled)| enabled)
+        .find_map(|&(name, _)| {
+            let index = extensions.others.get(name)?.get("source")?.as_u64()?;
+            usize::try_from(index)
+                .ok()
+                .filter(|&i| i < root.images.len())
+        })
+}
+
+fn used_items(root: &gltf::json::Root) -> UsedItems {
+    let mut used = UsedItems {
+        textures: vec![false; root.textures.len()],
+        images: vec![false; root.images.len()],
+        samplers: vec![false; root.samplers.len()],
+    };
+    for material in &root.materials {
+        let pbr = &material.pbr_metallic_roughness;
+        let slots = [
+            pbr.base_color_texture.as_ref().map(|t| t.index.value()),
+            pbr.metallic_roughness_texture
+                .as_ref()
+                .map(|t| t.index.value()),
+            material.emissive_texture.as_ref().map(|t| t.index.value()),
+        ];
+        for texture in slots.into_iter().flatten() {
+            let Some(slot) = used.textures.get_mut(texture) else {
+                continue;
+            };
+            *slot = true;
+            if let Some(image) = texture_image_index(root, texture) {
+                used.images[image] = true;
+            }
+            if let Some(sampler) = root.textures[texture].sampler.as_ref()
+                && let Some(slot) = used.samplers.get_mut(sampler.value())
+            {
+                *slot = true;
+            }
+        }
+    }
+    used
+}
+
+/// Whether a schema problem at `json_path` lies in an item the loader never reads; if so,
+/// why going on is safe (empty: it is no problem for this loader, e.g. a texture without
+/// `source` that a decoded format's extension gives its image).
+fn unread_item(json_path: &str, root: &gltf::json::Root, used: &UsedItems) -> Option<String> {
+    if let Some(texture) = path_index(json_path, "textures[") {
+        if used.textures.get(texture) == Some(&false) {
+            return Some(format!(
+                "no material's base-colour, metallic-roughness or emissive slot uses texture {texture}"
+            ));
+        }
+        // A used texture without a valid `source` that is read from a decoded format's
+        // extension instead.
+        // Not a defect at all: such a texture is valid under its extension (an empty
+        // reason means no warning).
+        if json_path == format!("textures[{texture}].source")
+            && texture_image_index(root, texture).is_some()
+        {
+            return Some(String::new());
+        }
+        return None;
+    }
+    if let Some(image) = path_index(json_path, "images[") {
+        return (used.images.get(image) == Some(&false)).then(|| {
+            format!("image {image} belongs to no texture that a material's colour, metallic-roughness or emissive slot uses")
+        });
+    }
+    if let Some(sampler) = path_index(json_path, "samplers[") {
+        return (used.samplers.get(sampler) == Some(&false))
+            .then(|| format!("sampler {sampler} belongs to no texture the loader reads"));
+    }
+    if let Some(material) = path_index(json_path, "materials[") {
+        let rest = &json_path[json_path.find(']')? + 1..];
+        if rest.starts_with(".normalTexture") || rest.starts_with(".occlusionTexture") {
+            return Some(format!(
+                "material {material}'s normal and occlusion maps are never read (materials keep constant colours)"
+            ));
+        }
+    }
+    None
 }
 
 /// Schema validation with the `gltf-json` validator, keeping what this loader can live with.
@@ -209,6 +382,7 @@ fn validate(
     root.validate(root, gltf::json::Path::new, &mut |path, error| {
         problems.push((path().to_string(), error));
     });
+    let used = used_items(root);
     let mut fatal = Vec::new();
     for (json_path, error) in problems {
         let is_position_bound =
@@ -219,6 +393,17 @@ fn validate(
         }
         if json_path.starts_with("extensionsRequired") {
             // Checked against this loader's own list in `check_extensions`.
+            continue;
+        }
+        if let Some(safe) = unread_item(&json_path, root, &used) {
+            if safe.is_empty() {
+                continue;
+            }
+            warnings.push(LoadWarning::UnreadDefect {
+                item: json_path,
+                problem: error.to_string(),
+                safe,
+            });
             continue;
         }
         fatal.push(format!("{json_path}: {error}"));
@@ -424,6 +609,7 @@ impl Loader<'_> {
                 }
             }
         };
+        self.check_declared_size(&roots)?;
         let node_count = document.nodes().len();
         let mut stack: Vec<(gltf::Node<'_>, Mat4, usize)> = roots
             .into_iter()
@@ -448,6 +634,62 @@ impl Loader<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Refuses, before any mesh is decoded, a scene whose accessor counts (times its node
+    /// instances and `EXT_mesh_gpu_instancing` copies) declare more triangles than the scene
+    /// can index or the memory limit can hold.
+    fn check_declared_size(&self, roots: &[gltf::Node<'_>]) -> Result<(), LoadError> {
+        let node_count = self.document.nodes().len();
+        let mut total: u128 = 0;
+        let mut stack: Vec<(gltf::Node<'_>, usize)> =
+            roots.iter().map(|n| (n.clone(), 0)).collect();
+        while let Some((node, depth)) = stack.pop() {
+            if depth > node_count {
+                // A cycle: the walk reports it.
+                return Ok(());
+            }
+            if let Some(mesh) = node.mesh() {
+                let per_mesh: u128 = mesh
+                    .primitives()
+                    .map(|p| {
+                        let n = p
+                            .indices()
+                            .or_else(|| p.get(&gltf::Semantic::Positions))
+                            .map_or(0, |a| a.count()) as u128;
+                        match p.mode() {
+                            Mode::Triangles => n / 3,
+                            Mode::TriangleStrip | Mode::TriangleFan => n.saturating_sub(2),
+                            _ => 0,
+                        }
+                    })
+                    .sum();
+                let instances = node
+                    .extension_value(INSTANCING)
+                    .and_then(|_| self.instance_count(&node))
+                    .unwrap_or(1) as u128;
+                total = total.saturating_add(per_mesh.saturating_mul(instances));
+            }
+            stack.extend(node.children().map(|c| (c, depth + 1)));
+        }
+        if total > crate::scene::MAX_TRIANGLES as u128 {
+            return Err(LoadError::Build {
+                path: self.path.to_owned(),
+                source: crate::error::BuildError::TooManyTriangles {
+                    count: usize::try_from(total).unwrap_or(usize::MAX),
+                },
+            });
+        }
+        let estimate = (total as u64).saturating_mul(crate::scene::BYTES_PER_TRIANGLE);
+        self.limit
+            .check(
+                format!("a scene of {total} triangles (declared by its accessors)"),
+                estimate,
+            )
+            .map_err(|source| LoadError::TooLarge {
+                path: self.path.to_owned(),
+                source,
+            })
     }
 
     fn non_finite_transform(&self, node: &gltf::Node<'_>) -> LoadError {
