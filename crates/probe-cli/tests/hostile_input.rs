@@ -101,20 +101,7 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
     };
     let output = bake(&["--res", "4"]);
     assert!(output.status.success(), "{}", stderr(&output));
-    let before: Vec<(String, Vec<u8>)> = {
-        let mut files: Vec<_> = std::fs::read_dir(&out)
-            .unwrap()
-            .map(|e| {
-                let e = e.unwrap();
-                (
-                    e.file_name().to_string_lossy().into_owned(),
-                    std::fs::read(e.path()).unwrap(),
-                )
-            })
-            .collect();
-        files.sort();
-        files
-    };
+    let before = folder_contents(&out);
     let output = bake(&["--res", "1024", "--max-memory", "64M"]);
     assert!(!output.status.success());
     let text = stderr(&output);
@@ -123,17 +110,7 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
         text.contains("a bake of 1 probes at 1024²") && text.contains("64.0 MiB"),
         "{text}"
     );
-    let mut after: Vec<_> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    after.sort();
+    let after = folder_contents(&out);
     assert_eq!(
         after, before,
         "the refused bake changed the bake already there"
@@ -166,4 +143,20 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
         stderr(&output)
     );
     assert!(!dir.path().join("x.exr").exists());
+}
+
+/// Every file of `dir` with its bytes, sorted by name.
+fn folder_contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    files.sort();
+    files
 }

@@ -1158,7 +1158,9 @@ pub fn run_sweep(
         None
     };
     let view_sets = mean_over_views(&records);
-    let headline = headline(&judged(&records, &view_sets));
+    // A scene with a view set is judged (headline and charts) by its means over the views.
+    let judged = judged(&records, &view_sets);
+    let headline = headline(&judged);
     let mut report = SweepReport {
         config: config.clone(),
         device: device.describe(),
@@ -1181,7 +1183,7 @@ pub fn run_sweep(
         .collect();
     write_atomic(&csv, to_csv(&all).as_bytes())?;
     files.push(csv);
-    let (charts, notes) = write_charts(&report, out)?;
+    let (charts, notes) = write_charts(&judged, out)?;
     files.extend(charts);
     report.skipped.extend(notes);
     files.push(write_optimiser_chart(out)?.0);
@@ -1296,18 +1298,16 @@ const FAMILIES: [&str; 11] = [
 /// because none of its points can be drawn (every error 0 on the logarithmic axis: a view of
 /// unlit surfaces only, as `leak-closed`'s dark room).
 fn write_charts(
-    report: &SweepReport,
+    judged: &[SweepRecord],
     out: &Path,
 ) -> Result<(Vec<PathBuf>, Vec<String>), EvalError> {
     let mut files = Vec::new();
     let mut notes = Vec::new();
-    // A scene with a view set is charted by its means over the views.
-    let judged = judged(&report.records, &report.view_sets);
     let mut scenes: Vec<&str> = judged.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     for scene in scenes {
         let records: Vec<&SweepRecord> = judged.iter().filter(|r| r.scene == scene).collect();
-        let best = best_per_placement(&judged, scene);
+        let best = best_per_placement(judged, scene);
         let over = records
             .first()
             .filter(|r| r.views > 1)

@@ -150,11 +150,12 @@ pub fn view_set(scene: &Scene, options: &ViewSetOptions) -> Result<Vec<Camera>, 
     let vote = BackfaceVote::new(scene);
     let mut outdoors_limited = vote.clone();
     outdoors_limited.max_escaping_fraction = Some(0.5);
-    let region_free = region.as_ref().map(|r| RegionFreeSpace::new(&vote, r));
-    let free: &dyn FreeSpace = match &region_free {
-        Some(r) => r,
-        None => &outdoors_limited,
+    let inner: &dyn FreeSpace = if region.is_some() {
+        &vote
+    } else {
+        &outdoors_limited
     };
+    let free = RegionFreeSpace::new(inner, region.as_ref());
     let boxes = region
         .as_ref()
         .map_or_else(|| vec![scene.bounds()], |r| r.boxes().to_vec());

@@ -372,13 +372,8 @@ pub fn place(
         BackfaceVote::new(scene),
         VoxelFreeSpace::new(&voxels, scene.bounds()),
     );
-    let region_free = region
-        .as_ref()
-        .map(|r| RegionFreeSpace::new(&scene_free, r));
-    let free: &dyn FreeSpace = match &region_free {
-        Some(r) => r,
-        None => &scene_free,
-    };
+    let region_free = RegionFreeSpace::new(&scene_free, region.as_ref());
+    let free: &dyn FreeSpace = &region_free;
     let pool = free_space_grid(free, spacing);
     if region.is_some() && pool.is_empty() {
         let size = free.bounds().size() / spacing;

@@ -243,19 +243,21 @@ impl Region {
 
 /// A free-space test restricted to a region: a point is free when it lies in the region and
 /// `inner` finds it free. Its bounds are the region's (cut to `inner`'s), so grids of
-/// reference points and optimiser moves stay inside.
+/// reference points and optimiser moves stay inside. Without a region it is `inner` itself.
 pub struct RegionFreeSpace<'f> {
     inner: &'f dyn FreeSpace,
-    region: &'f Region,
+    region: Option<&'f Region>,
     bounds: Aabb,
 }
 
 impl<'f> RegionFreeSpace<'f> {
-    /// `inner` restricted to `region`.
-    pub fn new(inner: &'f dyn FreeSpace, region: &'f Region) -> RegionFreeSpace<'f> {
+    /// `inner` restricted to `region` (unrestricted for `None`).
+    pub fn new(inner: &'f dyn FreeSpace, region: Option<&'f Region>) -> RegionFreeSpace<'f> {
         let outer = inner.bounds();
-        let r = region.bounds();
-        let bounds = Aabb::new(r.min.max(outer.min), r.max.min(outer.max));
+        let bounds = region.map_or(outer, |region| {
+            let r = region.bounds();
+            Aabb::new(r.min.max(outer.min), r.max.min(outer.max))
+        });
         RegionFreeSpace {
             inner,
             region,
@@ -263,8 +265,8 @@ impl<'f> RegionFreeSpace<'f> {
         }
     }
 
-    /// The region.
-    pub fn region(&self) -> &Region {
+    /// The region, if there is one.
+    pub fn region(&self) -> Option<&Region> {
         self.region
     }
 }
@@ -279,7 +281,7 @@ impl FreeSpace for RegionFreeSpace<'_> {
     }
 
     fn is_free(&self, point: Vec3) -> bool {
-        self.region.contains(point) && self.inner.is_free(point)
+        self.region.is_none_or(|r| r.contains(point)) && self.inner.is_free(point)
     }
 }
 

@@ -110,11 +110,8 @@ impl<'a> ViewProxy<'a> {
             None => None,
         };
         let vote = BackfaceVote::new(scene);
-        let region_free = region.as_ref().map(|r| RegionFreeSpace::new(&vote, r));
-        let free: &dyn FreeSpace = match &region_free {
-            Some(r) => r,
-            None => &vote,
-        };
+        let region_free = RegionFreeSpace::new(&vote, region.as_ref());
+        let free: &dyn FreeSpace = &region_free;
         let spacing = free.bounds().size().max_element() / 25.0;
         let pool = free_space_grid(free, spacing);
         if pool.is_empty() {
