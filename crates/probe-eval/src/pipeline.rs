@@ -317,6 +317,7 @@ pub fn light_field(baked: &ProbeBake) -> LightField<'_> {
         radial_distance: baked.distances(),
         normals: baked.normals(),
         radiance: baked.radiance(),
+        distance_range: None,
         sky_distance: MISS_DISTANCE * 0.5,
     }
 }

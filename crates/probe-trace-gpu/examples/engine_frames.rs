@@ -109,6 +109,7 @@ impl RoomProbes {
             radial_distance: &self.distance,
             normals: &self.normals,
             radiance: &self.radiance,
+            distance_range: None,
             sky_distance: 1000.0,
         }
     }

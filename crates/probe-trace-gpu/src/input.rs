@@ -27,6 +27,14 @@ pub struct LightField<'a> {
     pub normals: &'a [Vec3],
     /// Linear RGB radiance leaving that point towards the probe (for sky texels: the sky).
     pub radiance: &'a [Vec3],
+    /// Optional: per texel, the nearest and farthest radial distance the baker found over
+    /// rays spread across the texel (`sky_distance` or more for rays that saw no geometry),
+    /// laid out as the other maps. A texel whose cone holds geometry nearer or farther than
+    /// its centre's surface plane allows (a thin or cut-out surface, an edge inside the texel)
+    /// is then treated as an edge: rays meeting it there are handed on instead of being
+    /// passed in front of geometry the centre ray missed, or given a hit where the plane ends.
+    /// `None`: only the centre rays are known (edges are found between neighbours).
+    pub distance_range: Option<&'a [Vec2]>,
     /// Radial distances at or above this mean "no geometry" (finite, > 0). A ray that gets
     /// this far from a probe in front of everything it saw is a MISS.
     pub sky_distance: f32,

@@ -71,6 +71,7 @@
 //!     radial_distance: &distance,
 //!     normals: &normals,
 //!     radiance: &radiance,
+//!     distance_range: None,
 //!     sky_distance: 1000.0,
 //! };
 //!

@@ -2,7 +2,7 @@
 //! uploads them as storage buffers, the CPU twin reads the same numbers.
 
 use bytemuck::{Pod, Zeroable};
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use probe_index::{GridParams, NO_PROBE, ProbeGrid, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader};
 use probe_octa::OctaLayout;
 
@@ -194,6 +194,7 @@ impl TexelBounds {
         centers: &[Vec3],
         distance: &[f32],
         normals: &[Vec3],
+        distance_range: Option<&[Vec2]>,
         sky: f32,
         thickness_scale: f32,
         conservative: bool,
@@ -268,6 +269,24 @@ impl TexelBounds {
                 if !is_sky[i] && surfaces[i].cos_incidence < COS_TRUSTED {
                     // Seen too obliquely for its plane to place a hit.
                     farther_edge = true;
+                }
+                if let Some(range) = distance_range {
+                    // What the baker saw inside the texel's cone: a nearer sample is geometry
+                    // the centre's plane does not model (a thin or partly covering surface,
+                    // an edge inside the texel), a farther one shows the plane ends inside it.
+                    let [lo, hi] = range[layout.interior_index(ix, iy)].to_array();
+                    let margin = if is_sky[i] {
+                        0.0
+                    } else {
+                        surfaces[i].thickness
+                    };
+                    if lo < near.min(sky) - margin {
+                        nearer_edge = true;
+                        near = near.min(lo - margin);
+                    }
+                    if !is_sky[i] && hi > base_far[i] + margin {
+                        farther_edge = true;
+                    }
                 }
                 self.near[i] = near;
                 self.far[i] = far;
@@ -396,6 +415,24 @@ impl PackedField {
         check_length("radial_distance", texels, field.radial_distance.len())?;
         check_length("normals", texels, field.normals.len())?;
         check_length("radiance", texels, field.radiance.len())?;
+        if let Some(range) = field.distance_range {
+            check_length("distance_range", texels, range.len())?;
+            for (index, r) in range.iter().enumerate() {
+                if !r.is_finite() {
+                    return Err(UploadError::NonFinite {
+                        parameter: "distance_range",
+                        index,
+                    });
+                }
+                if r.x < 0.0 || r.x > r.y {
+                    return Err(UploadError::BadParameter {
+                        parameter: "distance_range",
+                        value: r.x,
+                        requirement: "each texel's range must be 0 <= nearest <= farthest",
+                    });
+                }
+            }
+        }
         check_finite("positions", field.positions)?;
         check_finite("normals", field.normals)?;
         check_finite("radiance", field.radiance)?;
@@ -435,7 +472,7 @@ impl PackedField {
         let corner_dirs: Vec<Vec3> = (0..(n + 1) * (n + 1))
             .map(|i| {
                 let step = 2.0 / n as f32;
-                let q = glam::Vec2::new(
+                let q = Vec2::new(
                     -1.0 + (i % (n + 1)) as f32 * step,
                     -1.0 + (i / (n + 1)) as f32 * step,
                 );
@@ -450,6 +487,7 @@ impl PackedField {
                 &centers,
                 &field.radial_distance[range.clone()],
                 &field.normals[range.clone()],
+                field.distance_range.map(|r| &r[range.clone()]),
                 sky,
                 thickness,
                 options.conservative_edges,
@@ -536,8 +574,10 @@ fn push_kd_nodes(
 }
 
 impl PackedSelection {
-    /// Checks a selection against the number of probes and packs it.
-    pub fn new(selection: &ProbeSelection<'_>, probe_count: usize) -> Result<Self, UploadError> {
+    /// Checks a selection against the probes and packs it, with a k-d tree over `positions`
+    /// (the nearest-probe extension of every selection; the Voronoi selection's own tree).
+    pub fn new(selection: &ProbeSelection<'_>, positions: &[Vec3]) -> Result<Self, UploadError> {
+        let probe_count = positions.len();
         let mut packed = PackedSelection {
             kind: SELECT_GRID,
             grid: GridParams::zeroed(),
@@ -648,6 +688,22 @@ impl PackedSelection {
                 packed.neighbour_resolution = neighbours.resolution();
                 packed.words.extend_from_slice(neighbours.table());
             }
+        }
+        if packed.kind != SELECT_VORONOI {
+            // Every selection gets the nearest-probe tree, for candidates beyond its own.
+            let nearest = probe_index::NearestProbe::new(positions);
+            check_addressable(
+                "selection",
+                packed.words.len() as u64 + 4 * nearest.nodes().len() as u64,
+                4,
+            )?;
+            packed.kd_nodes = push_kd_nodes(
+                &mut packed.words,
+                nearest.nodes(),
+                "nearest-probe tree",
+                probe_count,
+            )?;
+            packed.kd_count = nearest.nodes().len() as u32;
         }
         if packed.words.is_empty() {
             packed.words.push(0);
@@ -809,7 +865,8 @@ pub(crate) struct TraceParams {
     pub max_steps: u32,
     pub sky_distance: f32,
     pub thickness_scale: f32,
-    pub pad0: [u32; 2],
+    pub nearest_candidates: u32,
+    pub pad0: u32,
     pub level_offsets: [[u32; 4]; 4],
     pub grid: GridParams,
     pub svo: SvoHeader,
@@ -854,6 +911,10 @@ pub(crate) const METHOD_TWO_LEVEL: u32 = 1;
 /// Most single-probe traces per ray an option may ask for.
 pub(crate) const MAX_PROBES_PER_RAY: u32 = 64;
 
+/// Most nearest probes a restart point's candidate list may be extended by
+/// (`TraceOptions::nearest_candidates`).
+pub(crate) const MAX_NEAREST_CANDIDATES: u32 = 16;
+
 /// Checks trace options and turns them into the uniform block both tracers read.
 pub(crate) fn trace_params(
     field: &PackedField,
@@ -867,6 +928,13 @@ pub(crate) fn trace_params(
             option: "max_probes",
             value: f64::from(options.max_probes),
             requirement: "it must be from 1 to 64",
+        });
+    }
+    if options.nearest_candidates > MAX_NEAREST_CANDIDATES {
+        return Err(TraceError::BadOption {
+            option: "nearest_candidates",
+            value: f64::from(options.nearest_candidates),
+            requirement: "it must be from 0 to 16",
         });
     }
     if options.coarse_downsample == 0 || !options.coarse_downsample.is_power_of_two() {
@@ -901,7 +969,8 @@ pub(crate) fn trace_params(
         max_steps: 4 * field.resolution * field.level_count + 64,
         sky_distance: field.sky_distance,
         thickness_scale: field.thickness_scale,
-        pad0: [0; 2],
+        nearest_candidates: options.nearest_candidates,
+        pad0: 0,
         level_offsets,
         grid: selection.grid,
         svo: selection.svo,
@@ -1043,6 +1112,11 @@ mod tests {
 
     /// Flag counts (farther, nearer) of one probe in a box room.
     fn flags_in_room(p: Vec3, n: u32) -> (usize, usize, usize) {
+        flags_in_room_sampled(p, n, false)
+    }
+
+    /// [`flags_in_room`], optionally with the distance range of 3×3 rays across each texel.
+    fn flags_in_room_sampled(p: Vec3, n: u32, sampled: bool) -> (usize, usize, usize) {
         let (lo, hi) = (Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 3.0, 2.0));
         let layout = OctaLayout::new(n).unwrap();
         let mut distance = vec![0.0; layout.padded_len()];
@@ -1059,13 +1133,35 @@ mod tests {
                 }
             }
         }
+        let mut range = vec![Vec2::ZERO; layout.padded_len()];
+        let step = 2.0 / n as f32;
+        for iy in 0..n {
+            for ix in 0..n {
+                let (mut lo_t, mut hi_t) = (f32::INFINITY, 0.0f32);
+                for k in 0..9 {
+                    let (a, b) = ((k % 3) as f32, (k / 3) as f32);
+                    let q = Vec2::new(
+                        -1.0 + (ix as f32 + (2.0 * a + 1.0) / 6.0) * step,
+                        -1.0 + (iy as f32 + (2.0 * b + 1.0) / 6.0) * step,
+                    );
+                    let t = box_room(p, probe_octa::decode(q), lo, hi).0;
+                    lo_t = lo_t.min(t);
+                    hi_t = hi_t.max(t);
+                }
+                range[layout.interior_index(ix, iy)] = Vec2::new(lo_t, hi_t);
+            }
+        }
         layout.pad(&mut distance).unwrap();
         layout.pad(&mut normals).unwrap();
+        layout.pad(&mut range).unwrap();
         let centers: Vec<Vec3> = (0..n * n)
             .map(|i| probe_octa::decode(texel_center(n, i % n, i / n)))
             .collect();
         let mut bounds = TexelBounds::new(n);
-        bounds.compute(&layout, &centers, &distance, &normals, 100.0, 1.0, false);
+        let range = sampled.then_some(&range[..]);
+        bounds.compute(
+            &layout, &centers, &distance, &normals, range, 100.0, 1.0, false,
+        );
         let farther = bounds
             .packed
             .iter()
@@ -1091,6 +1187,10 @@ mod tests {
             let (farther, nearer, grazing) = flags_in_room(p, 64);
             eprintln!("{p}: {farther} farther, {nearer} nearer, {grazing} grazing");
             assert_eq!(nearer, 0, "{p}");
+            // The baker's samples across each texel see the same walls: no new edges.
+            let sampled = flags_in_room_sampled(p, 64, true);
+            eprintln!("{p}: with distance ranges {sampled:?}");
+            assert_eq!(sampled, (farther, nearer, grazing), "{p}");
         }
     }
 }

@@ -181,8 +181,14 @@ pub struct TraceOptions {
     /// Two-level: how many full-resolution texels per side one low-resolution texel covers
     /// (McGuire 2017: 16, 1024² → 64²); a power of two, clamped to the resolution. Default 16.
     pub coarse_downsample: u32,
-    /// Most single-probe traces per ray (1..=64). Default 8, one cage.
+    /// Most single-probe traces per ray (1..=64). Candidates whose depth map shows the point
+    /// the ray restarts from hidden are skipped after one fetch and not counted. Default 16
+    /// (measured: BENCHMARKS.md, "A tracer that answers").
     pub max_probes: u32,
+    /// When the selection's own candidates for a point have all failed there, also try this
+    /// many of the probes nearest to the point (0..=16, a k-d tree query; 0 turns the
+    /// extension off, as before). Default 16.
+    pub nearest_candidates: u32,
     /// Reject hits on surfaces facing away from the ray (seed 003 §7.2). Default true.
     pub back_face_rejection: bool,
 }
@@ -193,7 +199,8 @@ impl Default for TraceOptions {
             method: TraceMethod::HiZ,
             hiz_top_level: 6,
             coarse_downsample: 16,
-            max_probes: 8,
+            max_probes: 16,
+            nearest_candidates: 16,
             back_face_rejection: true,
         }
     }

@@ -34,6 +34,7 @@ fn light_field(f: &Field, n: u32) -> LightField<'_> {
         radial_distance: &f.distance,
         normals: &f.normals,
         radiance: &f.radiance,
+        distance_range: None,
         sky_distance: 100.0,
     }
 }

@@ -45,6 +45,7 @@ fn check(
         radial_distance: &distances,
         normals: &normals,
         radiance: &radiance,
+        distance_range: None,
         sky_distance: SKY,
     };
     let mut tracer = CpuTracer::new();
@@ -52,11 +53,20 @@ fn check(
         .upload(&field, selection, &FieldOptions::default())
         .unwrap();
     let trace_rays: Vec<TraceRay> = rays.iter().map(|&(o, d)| TraceRay::new(o, d)).collect();
-    let results = tracer
+    // The selection's own candidates alone (no nearest-probe extension) ...
+    let own = TraceOptions {
+        nearest_candidates: 0,
+        ..TraceOptions::default()
+    };
+    let results = tracer.trace(&uploaded, &trace_rays, &own).unwrap().results;
+    // ... and with the extension, which answers where the selection has no candidate with
+    // the probe nearest to the ray's start.
+    let extended = tracer
         .trace(&uploaded, &trace_rays, &TraceOptions::default())
         .unwrap()
         .results;
-    for (&(origin, direction), result) in rays.iter().zip(&results) {
+    let nearest = NearestProbe::new(positions);
+    for ((&(origin, direction), result), with_nearest) in rays.iter().zip(&results).zip(&extended) {
         let expected = reference.select(&ProbeQuery {
             position: origin,
             direction: direction.normalize(),
@@ -81,7 +91,14 @@ fn check(
                 prop_assert_eq!(result.probe, None, "{}: from {}", selection.name(), origin);
                 prop_assert_eq!(result.status, RayStatus::Unknown);
                 prop_assert_eq!(result.probes_tried, 0);
+                let closest = nearest.nearest(origin).map(|(p, _)| p);
+                prop_assert_eq!(with_nearest.probe, closest, "nearest to {}", origin);
+                prop_assert_eq!(with_nearest.status, RayStatus::Miss);
             }
+        }
+        if !expected.as_slice().is_empty() {
+            // The extension only adds candidates after the selection's own.
+            prop_assert_eq!(with_nearest, result);
         }
     }
     Ok(())

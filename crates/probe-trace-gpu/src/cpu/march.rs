@@ -58,6 +58,16 @@ impl Outcome {
             ..Outcome::CONTINUE
         }
     }
+
+    /// The relaxed march's guess: a hit at `t` in `cell`.
+    fn guess(t: f32, cell: UVec2, normal: u32) -> Outcome {
+        Outcome {
+            code: HIT,
+            t,
+            cell,
+            normal,
+        }
+    }
 }
 
 /// The probe-local view of one ray; `L` records where fetches go (`()` records nothing).
@@ -79,6 +89,10 @@ pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     pub path_position: f32,
     /// The hi-Z level the previous segment's march ended at (the next starts there).
     pub carry_level: u32,
+    /// The estimate's march (an UNKNOWN ray's fallback): the first place where the ray may
+    /// meet what the probe saw is taken as a hit — entering behind a texel's surface, or
+    /// crossing its plane at an edge or from behind — instead of handing the ray on.
+    pub relaxed: bool,
 }
 
 /// `signNotZero` with the `+` side for 0 and −0 (as `probe_octa::sign_not_zero`).
@@ -449,7 +463,7 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         let n = self.field.resolution;
         let texel = self.field.geometry[padded_index(n, self.probe, cell.x, cell.y)];
         let farther_edge = texel[0] & SIGN_BIT != 0;
-        let nearer_edge = texel[3] & SIGN_BIT != 0;
+        let nearer_edge = texel[3] & SIGN_BIT != 0 && !self.relaxed;
         let distance = f32::from_bits(texel[0] & !SIGN_BIT);
         if distance >= self.params.sky_distance && !nearer_edge {
             return (Outcome::CONTINUE, FetchKind::FineNear);
@@ -461,8 +475,14 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         if ra.max(rb) < near {
             return (Outcome::CONTINUE, FetchKind::FineNear);
         }
+        // Where the strict test hands the ray on, the relaxed one guesses a hit.
+        let hidden = if self.relaxed {
+            Outcome::guess(ta, cell, texel[1])
+        } else {
+            Outcome::unknown(ta)
+        };
         if ra > far || nearer_edge {
-            return (Outcome::unknown(ta), FetchKind::FineUnknown);
+            return (hidden, FetchKind::FineUnknown);
         }
         let normal = unpack_normal(texel[1]);
         let center = probe_octa::decode(texel_center(n, cell.x, cell.y));
@@ -476,7 +496,7 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             // hidden, unless the entry lies nearer than the whole patch (the plane is only
             // trusted inside the texel's depth range).
             return if ra >= near {
-                (Outcome::unknown(ta), FetchKind::FineUnknown)
+                (hidden, FetchKind::FineUnknown)
             } else {
                 (Outcome::CONTINUE, FetchKind::FinePlane)
             };
@@ -491,12 +511,13 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             // the thickness along the normal: deeper, the ray is behind the surface (on the
             // far side of a wall), not on it.
             if sa < -surface.plane_thickness {
-                return (Outcome::unknown(ta), FetchKind::FineUnknown);
+                return (hidden, FetchKind::FineUnknown);
             }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);
         }
-        if farther_edge
-            || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0)
+        if !self.relaxed
+            && (farther_edge
+                || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0))
         {
             return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
@@ -574,7 +595,7 @@ impl<L: FetchLog> ProbeRay<'_, L> {
                 let rb = self.radius(tb);
                 let plane = Plane::unpack(packed_normal, offset);
                 if ra.max(rb) >= lo && !self.in_front_of(&plane, ta, tb) {
-                    if ra > hi {
+                    if ra > hi && !self.relaxed {
                         self.log
                             .fetch(FetchKind::PyramidUnknown, level, self.path_position);
                         return Outcome::unknown(ta);

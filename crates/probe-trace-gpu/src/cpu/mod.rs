@@ -148,8 +148,9 @@ impl Tracer for CpuTracer {
         selection: &ProbeSelection<'_>,
         options: &FieldOptions,
     ) -> Result<CpuField, UploadError> {
-        let field = PackedField::new(field, options)?;
-        let selection = PackedSelection::new(selection, field.probe_count as usize)?;
+        let packed = PackedField::new(field, options)?;
+        let selection = PackedSelection::new(selection, field.positions)?;
+        let field = packed;
         Ok(CpuField { field, selection })
     }
 
@@ -251,6 +252,7 @@ fn trace_probe<L: FetchLog>(
     probe: u32,
     ray: &TraceRay,
     t_start: f32,
+    relaxed: bool,
     log: L,
 ) -> ProbeAnswer {
     let origin = Vec3::from(ray.origin) - field.position(probe);
@@ -291,6 +293,7 @@ fn trace_probe<L: FetchLog>(
         log,
         path_position: 0.0,
         carry_level: 0,
+        relaxed,
     };
     for segment in &segments[..count] {
         let outcome = probe_ray.march_segment(segment);
@@ -329,8 +332,23 @@ fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     UVec2::new(x, y)
 }
 
-/// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order), reporting
-/// to `observer` (`&mut ()` for none).
+/// Whether `probe`'s depth map can show the point `p`: `p` lies no farther than the far bound
+/// of the texel holding its direction (one fetch). A probe that cannot would answer UNKNOWN
+/// at once, without progress.
+fn sees_point(field: &PackedField, probe: u32, p: Vec3, fetches: &mut u32) -> bool {
+    let v = p - field.position(probe);
+    let r = v.length();
+    if r == 0.0 {
+        return true;
+    }
+    *fetches += 1;
+    let cell = direction_cell(field.resolution, v / r);
+    let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
+    r <= f32::from_bits(texel[3] & !crate::packed::SIGN_BIT)
+}
+
+/// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order, then the
+/// nearest probes), reporting to `observer` (`&mut ()` for none).
 pub(crate) fn trace_ray<O: RayObserver>(
     field: &PackedField,
     selection: &PackedSelection,
@@ -347,6 +365,10 @@ pub(crate) fn trace_ray<O: RayObserver>(
     let direction = Vec3::from(ray.direction);
     let mut t = ray.t_min;
     let mut list = selector.select(origin + direction * t, direction, NO_PROBE);
+    // The probe that failed at `t` (excluded from the list), and whether the list holds the
+    // nearest-probe extension yet.
+    let mut failed = NO_PROBE;
+    let mut extended = false;
     let mut next = 0u32;
     let mut tried = 0u32;
     let mut fetches = 0u32;
@@ -356,15 +378,29 @@ pub(crate) fn trace_ray<O: RayObserver>(
         probe: NO_PROBE,
         ..RayRecord::default()
     };
-    while tried < params.max_probes && next < list.len {
+    while tried < params.max_probes {
+        if next >= list.len {
+            if extended || params.nearest_candidates == 0 {
+                break;
+            }
+            selector.extend_nearest(&mut list, origin + direction * t, failed);
+            extended = true;
+            if next >= list.len {
+                break;
+            }
+        }
         let probe = list.probes[next as usize];
+        if !sees_point(field, probe, origin + direction * t, &mut fetches) {
+            next += 1;
+            continue;
+        }
         tried += 1;
         if fallback == NO_PROBE {
             fallback = probe;
         }
         let answer = match observer.fetch_log() {
-            Some(log) => trace_probe(field, params, probe, ray, t, log),
-            None => trace_probe(field, params, probe, ray, t, ()),
+            Some(log) => trace_probe(field, params, probe, ray, t, false, log),
+            None => trace_probe(field, params, probe, ray, t, false, ()),
         };
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         fetches += answer.fetches;
@@ -388,26 +424,46 @@ pub(crate) fn trace_ray<O: RayObserver>(
         }
         if answer.t > t {
             t = answer.t;
+            failed = probe;
             list = selector.select(origin + direction * t, direction, probe);
+            extended = false;
             next = 0;
         } else {
             next += 1;
         }
     }
-    // Fallback (seed 003 §5.4, an environment map): the selector's best probe for the last
-    // decided point, the furthest the ray is known to have come free, which sees the region
-    // the ray was heading into from nearest; the first probe tried when no probe is selected
-    // there.
-    if list.len > 0 {
-        fallback = list.probes[0];
+    // No probe could finish the ray: it stays UNKNOWN, with an estimate (seed 003 §5.4's
+    // fallback, made local). The probe that estimates is the first candidate for the last
+    // decided point that sees it (else the first probe tried); its relaxed march from there
+    // takes the first place where the ray may meet what it saw as the hit, and the radiance
+    // there. If it sees the ray leave, the radiance in the ray's direction.
+    let last = origin + direction * t;
+    let mut estimate = NO_PROBE;
+    for &probe in &list.probes[..list.len as usize] {
+        if sees_point(field, probe, last, &mut fetches) {
+            estimate = probe;
+            break;
+        }
+    }
+    if estimate == NO_PROBE {
+        estimate = fallback;
     }
     record.t = t;
-    record.position = (origin + direction * t).to_array();
+    record.position = last.to_array();
     record.probes_tried = tried;
-    if fallback != NO_PROBE {
-        fetches += 1;
-        record.radiance = radiance(field, fallback, direction_cell(field.resolution, direction));
-        record.probe = fallback;
+    if estimate != NO_PROBE {
+        let answer = trace_probe(field, params, estimate, ray, t, true, ());
+        fetches += answer.fetches + 1;
+        let cell = if answer.code == HIT {
+            record.t = answer.t;
+            record.position = (origin + direction * answer.t).to_array();
+            record.normal = crate::surface::unpack_normal(answer.normal).to_array();
+            answer.cell
+        } else {
+            direction_cell(field.resolution, direction)
+        };
+        record.radiance = radiance(field, estimate, cell);
+        record.probe = estimate;
     }
     record.texel_fetches = fetches;
     observer.ray_done(record.status, fetches);

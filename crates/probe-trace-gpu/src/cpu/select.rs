@@ -6,8 +6,8 @@ use probe_index::{NO_PROBE, SVO_LEAF_BIT, SVO_PACKED_BIT};
 
 use crate::packed::{PackedSelection, SELECT_GRID, SELECT_SVO, TraceParams};
 
-/// At most this many candidates (a grid cage).
-pub(crate) const MAX_CANDIDATES: usize = 8;
+/// At most this many candidates: a grid cage (8) and the nearest-probe extension (16).
+pub(crate) const MAX_CANDIDATES: usize = 24;
 
 /// Probes to try, best first.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -18,7 +18,7 @@ pub(crate) struct Candidates {
 
 impl Candidates {
     /// Appends `probe` unless it is [`NO_PROBE`], the list is full or already holds it.
-    fn push(&mut self, probe: u32) {
+    pub(crate) fn push(&mut self, probe: u32) {
         if probe == NO_PROBE || self.len as usize >= MAX_CANDIDATES {
             return;
         }
@@ -51,6 +51,27 @@ impl Selector<'_> {
             SELECT_GRID => self.grid(position, direction, failed),
             SELECT_SVO => self.svo(position, failed),
             _ => self.voronoi(position, direction, failed),
+        }
+    }
+
+    /// Appends to `list` the `params.nearest_candidates` probes nearest to `position` (nearest
+    /// first, ties to the lower index), leaving out `failed` and those already listed: the
+    /// candidates beyond the selection's own when those have all failed at `position`.
+    pub fn extend_nearest(&self, list: &mut Candidates, position: Vec3, failed: u32) {
+        let mut nearest = [(0u32, 0.0f32); MAX_NEAREST as usize];
+        let k = self.params.nearest_candidates.min(MAX_NEAREST);
+        let count = k_nearest(
+            &self.selection.words,
+            self.params.kd_nodes,
+            self.params.kd_count,
+            position,
+            k,
+            &mut nearest,
+        );
+        for &(probe, _) in &nearest[..count] {
+            if probe != failed {
+                list.push(probe);
+            }
         }
     }
 
@@ -191,6 +212,71 @@ impl Selector<'_> {
     }
 }
 
+/// Most probes [`k_nearest`] returns.
+pub(crate) const MAX_NEAREST: u32 = 16;
+
+/// The `k ≤ MAX_NEAREST` probes nearest to `p` in the k-d tree stored at `words[start..]`
+/// (`count` nodes of 4 words), nearest first, ties to the lower probe, into `out`; returns how
+/// many. The search of `probe_index::NearestProbe::nearest_k` with an explicit stack.
+pub(crate) fn k_nearest(
+    words: &[u32],
+    start: u32,
+    count: u32,
+    p: Vec3,
+    k: u32,
+    out: &mut [(u32, f32); MAX_NEAREST as usize],
+) -> usize {
+    let k = k.min(MAX_NEAREST) as usize;
+    let mut len = 0usize;
+    if k == 0 {
+        return 0;
+    }
+    let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+    stack[0] = (0, count, 0, -1.0);
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let (lo, hi, depth, bound) = stack[top];
+        if lo >= hi || (len == k && bound > out[k - 1].1) {
+            continue;
+        }
+        let mid = (lo + hi) / 2;
+        let at = (start + 4 * mid) as usize;
+        let q = Vec3::new(
+            f32::from_bits(words[at]),
+            f32::from_bits(words[at + 1]),
+            f32::from_bits(words[at + 2]),
+        );
+        let probe = words[at + 3];
+        let d = q - p;
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        // Insert (probe, d2) in order unless the list is full of nearer ones.
+        let better = |e: (u32, f32)| d2 < e.1 || (d2 == e.1 && probe < e.0);
+        if len < k || better(out[k - 1]) {
+            let mut i = len.min(k - 1);
+            while i > 0 && better(out[i - 1]) {
+                out[i] = out[i - 1];
+                i -= 1;
+            }
+            out[i] = (probe, d2);
+            len = (len + 1).min(k);
+        }
+        let axis = (depth % 3) as usize;
+        let delta = p[axis] - q[axis];
+        let (near, far) = if delta < 0.0 {
+            ((lo, mid), (mid + 1, hi))
+        } else {
+            ((mid + 1, hi), (lo, mid))
+        };
+        if top + 2 <= stack.len() {
+            stack[top] = (far.0, far.1, depth + 1, delta * delta);
+            stack[top + 1] = (near.0, near.1, depth + 1, -1.0);
+            top += 2;
+        }
+    }
+    len
+}
+
 /// Nearest probe to `p` in the k-d tree stored at `words[start..]` (`count` nodes of 4 words:
 /// position bits, probe), ties to the lower probe; the search of `probe_index::NearestProbe`
 /// with an explicit stack.
@@ -299,7 +385,7 @@ mod tests {
         lo: Vec3,
         hi: Vec3,
     ) {
-        let packed = PackedSelection::new(selection, positions.len()).unwrap();
+        let packed = PackedSelection::new(selection, positions).unwrap();
         let params = params_of(&packed);
         let padded: Vec<[f32; 4]> = positions.iter().map(|p| [p.x, p.y, p.z, 0.0]).collect();
         let ours = Selector {
@@ -393,6 +479,54 @@ mod tests {
     }
 
     use super::test_boxes::Boxes;
+
+    /// The packed k-nearest search returns what `NearestProbe::nearest_k` does, for every
+    /// selection kind's tree (ties included: a grid has many equidistant probes).
+    #[test]
+    fn k_nearest_matches_probe_index() {
+        let mut rng = Lcg(23);
+        let grid = ProbeGrid::new(Vec3::ZERO, Vec3::splat(0.5), [4, 3, 5]).unwrap();
+        let random: Vec<Vec3> = (0..70)
+            .map(|_| rng.point(Vec3::ZERO, Vec3::new(3.0, 2.0, 4.0)))
+            .collect();
+        for positions in [grid.positions(), random] {
+            let reference = NearestProbe::new(&positions);
+            let packed =
+                PackedSelection::new(&ProbeSelection::Grid(grid), &positions[..60]).unwrap();
+            let _ = packed;
+            let packed = PackedSelection::new(
+                &ProbeSelection::Grid(ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [2, 2, 2]).unwrap()),
+                &positions[..8],
+            )
+            .unwrap();
+            assert_eq!(packed.kd_count, 8);
+            let nodes: Vec<u32> = reference
+                .nodes()
+                .iter()
+                .flat_map(|n| {
+                    [
+                        n.position[0].to_bits(),
+                        n.position[1].to_bits(),
+                        n.position[2].to_bits(),
+                        n.probe,
+                    ]
+                })
+                .collect();
+            let mut expected = Vec::new();
+            let mut got = [(0u32, 0.0f32); MAX_NEAREST as usize];
+            for i in 0..500 {
+                let p = if i % 7 == 0 {
+                    positions[i % positions.len()] + Vec3::splat(0.25)
+                } else {
+                    rng.point(Vec3::splat(-1.0), Vec3::splat(5.0))
+                };
+                let k = (i % 17) as u32;
+                reference.nearest_k(p, k as usize, &mut expected);
+                let count = k_nearest(&nodes, 0, positions.len() as u32, p, k, &mut got);
+                assert_eq!(&got[..count], &expected[..], "k={k} at {p}");
+            }
+        }
+    }
 
     #[test]
     fn octree_selection_matches_probe_index() {

@@ -1001,7 +1001,7 @@ impl Tracer for GpuTracer {
         options: &FieldOptions,
     ) -> Result<GpuField, UploadError> {
         let mut meta = PackedField::new(field, options)?;
-        let selection = PackedSelection::new(selection, meta.probe_count as usize)?;
+        let selection = PackedSelection::new(selection, field.positions)?;
         let positions = self.storage_buffer("positions", bytemuck::cast_slice(&meta.positions))?;
         let geometry = self.storage_buffer("geometry", bytemuck::cast_slice(&meta.geometry))?;
         let pyramid_data: &[[u32; 4]] = if meta.pyramid.is_empty() {

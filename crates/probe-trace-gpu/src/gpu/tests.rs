@@ -140,6 +140,10 @@ fn shared_structs_match_the_wgsl_layout() {
             ("max_steps", offset_of!(TraceParams, max_steps)),
             ("sky_distance", offset_of!(TraceParams, sky_distance)),
             ("thickness_scale", offset_of!(TraceParams, thickness_scale)),
+            (
+                "nearest_candidates",
+                offset_of!(TraceParams, nearest_candidates),
+            ),
             ("level_offsets", offset_of!(TraceParams, level_offsets)),
             ("grid", offset_of!(TraceParams, grid)),
             ("svo", offset_of!(TraceParams, svo)),

@@ -44,8 +44,8 @@ struct TraceParams {
     max_steps: u32,
     sky_distance: f32,
     thickness_scale: f32,
+    nearest_candidates: u32,
     pad0: u32,
-    pad1: u32,
     level_offsets: array<vec4<u32>, 4>,
     grid: GridParams,
     svo: SvoHeader,
@@ -104,6 +104,8 @@ var<private> ray_t_min: f32;
 var<private> fetches: u32;
 // The hi-Z level the previous segment's march ended at.
 var<private> carry_level: u32;
+// The estimate's relaxed march (src/cpu/march.rs ProbeRay::relaxed).
+var<private> relaxed: bool;
 
 struct Segment {
     t0: f32,
@@ -401,7 +403,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     let n = params.resolution;
     let texel = geometry[padded_index(n, cur_probe, cell)];
     let farther_edge = (texel.x & SIGN_BIT) != 0u;
-    let nearer_edge = (texel.w & SIGN_BIT) != 0u;
+    let nearer_edge = (texel.w & SIGN_BIT) != 0u && !relaxed;
     let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
     if (distance >= params.sky_distance && !nearer_edge) {
         return outcome_continue();
@@ -413,8 +415,13 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     if (max(ra, rb) < near) {
         return outcome_continue();
     }
+    // Where the strict test hands the ray on, the relaxed one guesses a hit.
+    var hidden = outcome_unknown(ta);
+    if (relaxed) {
+        hidden = Outcome(HIT, ta, cell, texel.y);
+    }
     if (ra > far || nearer_edge) {
-        return outcome_unknown(ta);
+        return hidden;
     }
     let normal = unpack_normal(texel.y);
     let center = octa_decode(texel_center(n, cell));
@@ -425,7 +432,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     let sb = sa + (tb - ta) * k;
     if (sa < -surface.thickness) {
         if (ra >= near) {
-            return outcome_unknown(ta);
+            return hidden;
         }
         return outcome_continue();
     }
@@ -434,11 +441,11 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
         if (sa < -surface.plane_thickness) {
-            return outcome_unknown(ta);
+            return hidden;
         }
         return outcome_continue();
     }
-    if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
+    if (!relaxed && (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0))) {
         return outcome_unknown(ta);
     }
     var t = ta;
@@ -469,7 +476,7 @@ fn march_hiz(seg: Segment, c0: vec2<f32>, delta: vec2<f32>, top: u32) -> Outcome
             let plane_n = unpack_normal(record.z);
             let plane_c = bitcast<f32>(record.w);
             if (max(ra, rb) >= lo && !in_front_of(plane_n, plane_c, ta, tb)) {
-                if (ra > bitcast<f32>(record.y)) {
+                if (ra > bitcast<f32>(record.y) && !relaxed) {
                     return outcome_unknown(ta);
                 }
                 let t_pass = pass_prefix(lo, plane_n, plane_c, ta, tb);
@@ -593,8 +600,9 @@ struct ProbeAnswer {
     normal: u32,
 }
 
-fn trace_probe(probe: u32, ray: TraceRay, t_start: f32) -> ProbeAnswer {
+fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, relax: bool) -> ProbeAnswer {
     cur_probe = probe;
+    relaxed = relax;
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
     ray_t_min = ray.t_min;
@@ -626,13 +634,16 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32) -> ProbeAnswer {
 
 // ---- selection (src/cpu/select.rs) ----
 
+const MAX_CANDIDATES: u32 = 24u;
+const MAX_NEAREST: u32 = 16u;
+
 struct Candidates {
-    probes: array<u32, 8>,
+    probes: array<u32, 24>,
     len: u32,
 }
 
 fn push_candidate(c: ptr<function, Candidates>, probe: u32) {
-    if (probe == NO_PROBE || (*c).len >= 8u) {
+    if (probe == NO_PROBE || (*c).len >= MAX_CANDIDATES) {
         return;
     }
     for (var i = 0u; i < (*c).len; i++) {
@@ -763,6 +774,94 @@ fn select_voronoi(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Can
     return out;
 }
 
+// The k <= MAX_NEAREST probes nearest to p, nearest first, ties to the lower probe, appended
+// to the list (leaving out `failed`): src/cpu/select.rs k_nearest and extend_nearest.
+fn extend_nearest(list: ptr<function, Candidates>, p: vec3<f32>, failed: u32) {
+    let k = min(params.nearest_candidates, MAX_NEAREST);
+    if (k == 0u) {
+        return;
+    }
+    var best_probe: array<u32, 16>;
+    var best_d2: array<f32, 16>;
+    var len = 0u;
+    var stack_lo: array<u32, 64>;
+    var stack_hi: array<u32, 64>;
+    var stack_depth: array<u32, 64>;
+    var stack_bound: array<f32, 64>;
+    stack_lo[0] = 0u;
+    stack_hi[0] = params.kd_count;
+    stack_depth[0] = 0u;
+    stack_bound[0] = -1.0;
+    var top = 1u;
+    loop {
+        if (top == 0u) {
+            break;
+        }
+        top -= 1u;
+        let lo = stack_lo[top];
+        let hi = stack_hi[top];
+        let depth = stack_depth[top];
+        let bound = stack_bound[top];
+        if (lo >= hi || (len == k && bound > best_d2[k - 1u])) {
+            continue;
+        }
+        let mid = (lo + hi) / 2u;
+        let at = params.kd_nodes + 4u * mid;
+        let q = vec3<f32>(bitcast<f32>(words[at]), bitcast<f32>(words[at + 1u]), bitcast<f32>(words[at + 2u]));
+        let probe = words[at + 3u];
+        let d = q - p;
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        let worst = k - 1u;
+        if (len < k || d2 < best_d2[worst] || (d2 == best_d2[worst] && probe < best_probe[worst])) {
+            var i = min(len, worst);
+            loop {
+                if (i == 0u) {
+                    break;
+                }
+                let e_d2 = best_d2[i - 1u];
+                let e_probe = best_probe[i - 1u];
+                if (!(d2 < e_d2 || (d2 == e_d2 && probe < e_probe))) {
+                    break;
+                }
+                best_d2[i] = e_d2;
+                best_probe[i] = e_probe;
+                i -= 1u;
+            }
+            best_d2[i] = d2;
+            best_probe[i] = probe;
+            len = min(len + 1u, k);
+        }
+        let axis = depth % 3u;
+        let delta = p[axis] - q[axis];
+        var near_lo = mid + 1u;
+        var near_hi = hi;
+        var far_lo = lo;
+        var far_hi = mid;
+        if (delta < 0.0) {
+            near_lo = lo;
+            near_hi = mid;
+            far_lo = mid + 1u;
+            far_hi = hi;
+        }
+        if (top + 2u <= 64u) {
+            stack_lo[top] = far_lo;
+            stack_hi[top] = far_hi;
+            stack_depth[top] = depth + 1u;
+            stack_bound[top] = delta * delta;
+            stack_lo[top + 1u] = near_lo;
+            stack_hi[top + 1u] = near_hi;
+            stack_depth[top + 1u] = depth + 1u;
+            stack_bound[top + 1u] = -1.0;
+            top += 2u;
+        }
+    }
+    for (var i = 0u; i < len; i++) {
+        if (best_probe[i] != failed) {
+            push_candidate(list, best_probe[i]);
+        }
+    }
+}
+
 fn select_probes(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Candidates {
     if (params.selector == SELECT_GRID) {
         return select_grid(position, direction, failed);
@@ -780,12 +879,27 @@ fn radiance_at(probe: u32, cell: vec2<u32>) -> vec3<f32> {
     return vec3<f32>(radiance[i], radiance[i + 1u], radiance[i + 2u]);
 }
 
+// Whether `probe`'s depth map can show point p (src/cpu/mod.rs sees_point): one fetch.
+fn sees_point(probe: u32, p: vec3<f32>) -> bool {
+    let v = p - positions[probe].xyz;
+    let r = length(v);
+    if (r == 0.0) {
+        return true;
+    }
+    fetches += 1u;
+    let cell = texel_containing(params.resolution, v / r);
+    let texel = geometry[padded_index(params.resolution, probe, cell)];
+    return r <= bitcast<f32>(texel.w & ~SIGN_BIT);
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
     let direction = ray.direction;
     var t = ray.t_min;
     var list = select_probes(origin + direction * t, direction, NO_PROBE);
+    var failed = NO_PROBE;
+    var extended = false;
     var next = 0u;
     var tried = 0u;
     var fallback = NO_PROBE;
@@ -797,15 +911,29 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     record.pad0 = 0u;
     record.pad1 = 0u;
     loop {
-        if (tried >= params.max_probes || next >= list.len) {
+        if (tried >= params.max_probes) {
             break;
         }
+        if (next >= list.len) {
+            if (extended || params.nearest_candidates == 0u) {
+                break;
+            }
+            extend_nearest(&list, origin + direction * t, failed);
+            extended = true;
+            if (next >= list.len) {
+                break;
+            }
+        }
         let probe = list.probes[next];
+        if (!sees_point(probe, origin + direction * t)) {
+            next += 1u;
+            continue;
+        }
         tried += 1u;
         if (fallback == NO_PROBE) {
             fallback = probe;
         }
-        let answer = trace_probe(probe, ray, t);
+        let answer = trace_probe(probe, ray, t, false);
         if (answer.code == HIT || answer.code == MISS) {
             var cell = answer.cell;
             var normal = vec3<f32>(0.0);
@@ -827,23 +955,42 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         }
         if (answer.t > t) {
             t = answer.t;
+            failed = probe;
             list = select_probes(origin + direction * t, direction, probe);
+            extended = false;
             next = 0u;
         } else {
             next += 1u;
         }
     }
-    // The selector's best probe for the last decided point (src/cpu/mod.rs).
-    if (list.len > 0u) {
-        fallback = list.probes[0];
+    // The estimate of an UNKNOWN ray (src/cpu/mod.rs): the relaxed march of the first
+    // candidate that sees the last decided point.
+    let last = origin + direction * t;
+    var estimate = NO_PROBE;
+    for (var i = 0u; i < list.len; i++) {
+        if (sees_point(list.probes[i], last)) {
+            estimate = list.probes[i];
+            break;
+        }
+    }
+    if (estimate == NO_PROBE) {
+        estimate = fallback;
     }
     record.t = t;
-    record.position = origin + direction * t;
+    record.position = last;
     record.probes_tried = tried;
-    if (fallback != NO_PROBE) {
+    if (estimate != NO_PROBE) {
+        let answer = trace_probe(estimate, ray, t, true);
         fetches += 1u;
-        record.radiance = radiance_at(fallback, texel_containing(params.resolution, direction));
-        record.probe = fallback;
+        var cell = texel_containing(params.resolution, direction);
+        if (answer.code == HIT) {
+            record.t = answer.t;
+            record.position = origin + direction * answer.t;
+            record.normal = unpack_normal(answer.normal);
+            cell = answer.cell;
+        }
+        record.radiance = radiance_at(estimate, cell);
+        record.probe = estimate;
     }
     record.texel_fetches = fetches;
     return record;

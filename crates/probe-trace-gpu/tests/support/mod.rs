@@ -21,6 +21,9 @@ pub struct Bake {
     pub distance: Vec<f32>,
     pub normals: Vec<Vec3>,
     pub radiance: Vec<Vec3>,
+    /// Per texel the nearest and farthest distance over 3×3 rays spread across it (empty:
+    /// not measured).
+    pub distance_range: Vec<Vec2>,
     pub sky_distance: f32,
 }
 
@@ -32,6 +35,7 @@ impl Bake {
             radial_distance: &self.distance,
             normals: &self.normals,
             radiance: &self.radiance,
+            distance_range: (!self.distance_range.is_empty()).then_some(&self.distance_range[..]),
             sky_distance: self.sky_distance,
         }
     }
@@ -78,12 +82,16 @@ pub fn mini_capture(
 ) -> Bake {
     let layout = OctaLayout::new(resolution).unwrap();
     let len = layout.padded_len();
-    let per_probe: Vec<(Vec<f32>, Vec<Vec3>, Vec<Vec3>)> = positions
+    let step = 2.0 / resolution as f32;
+    /// One probe's padded maps: distance, normals, radiance, distance range.
+    type Maps = (Vec<f32>, Vec<Vec3>, Vec<Vec3>, Vec<Vec2>);
+    let per_probe: Vec<Maps> = positions
         .par_iter()
         .map(|&p| {
             let mut distance = vec![sky_distance; len];
             let mut normals = vec![Vec3::ZERO; len];
             let mut radiance = vec![SKY; len];
+            let mut range = vec![Vec2::splat(sky_distance); len];
             for iy in 0..resolution {
                 for ix in 0..resolution {
                     let d = layout.texel_direction(ix, iy);
@@ -93,12 +101,28 @@ pub fn mini_capture(
                         normals[i] = stored_normal(scene, &hit, d);
                         radiance[i] = shade(&hit, d);
                     }
+                    let (mut lo, mut hi) = (distance[i], distance[i]);
+                    for k in 0..9 {
+                        let (a, b) = ((k % 3) as f32, (k / 3) as f32);
+                        let q = Vec2::new(
+                            -1.0 + (ix as f32 + (2.0 * a + 1.0) / 6.0) * step,
+                            -1.0 + (iy as f32 + (2.0 * b + 1.0) / 6.0) * step,
+                        );
+                        let dir = probe_octa::decode(q);
+                        let t = scene
+                            .closest_hit(&Ray::new(p, dir), f32::INFINITY)
+                            .map_or(sky_distance, |h| h.t.min(sky_distance));
+                        lo = lo.min(t);
+                        hi = hi.max(t);
+                    }
+                    range[i] = Vec2::new(lo, hi);
                 }
             }
             layout.pad(&mut distance).unwrap();
             layout.pad(&mut normals).unwrap();
             layout.pad(&mut radiance).unwrap();
-            (distance, normals, radiance)
+            layout.pad(&mut range).unwrap();
+            (distance, normals, radiance, range)
         })
         .collect();
     let mut bake = Bake {
@@ -107,12 +131,14 @@ pub fn mini_capture(
         distance: Vec::with_capacity(len * positions.len()),
         normals: Vec::with_capacity(len * positions.len()),
         radiance: Vec::with_capacity(len * positions.len()),
+        distance_range: Vec::with_capacity(len * positions.len()),
         sky_distance,
     };
-    for (d, n, r) in per_probe {
+    for (d, n, r, range) in per_probe {
         bake.distance.extend(d);
         bake.normals.extend(n);
         bake.radiance.extend(r);
+        bake.distance_range.extend(range);
     }
     bake
 }
@@ -182,6 +208,7 @@ pub fn capture_bake(scene: &Scene, positions: &[Vec3], resolution: u32) -> Bake 
         distance: baked.distances().to_vec(),
         normals: baked.normals().to_vec(),
         radiance: baked.radiance().to_vec(),
+        distance_range: Vec::new(),
         sky_distance: capture_sky_distance(scene),
     }
 }
