@@ -231,7 +231,7 @@ pub use gpu::{
 };
 pub use input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 pub use ray::{
-    DiffuseOptions, DiffuseResult, RayRecord, RayResult, RayStatus, ShadingPoint, Timing,
-    TraceMethod, TraceOptions, TraceRay, TraceSummary,
+    DiffuseOptions, DiffuseResult, RayRecord, RayResult, RayStatus, ShadingPoint, SurfaceQuery,
+    Timing, TraceMethod, TraceOptions, TraceRay, TraceSummary,
 };
 pub use tracer::{AnyField, AnyIrradiance, AnyTracer, Tracer};

@@ -543,7 +543,14 @@ pub(crate) struct PackedSelection {
     pub kd_count: u32,
     pub neighbour_table: u32,
     pub neighbour_resolution: u32,
+    /// Start of the nearest-probe table in `words`: per probe, itself and its
+    /// [`NEAREST_ROW`]` − 1` nearest other probes, nearest first (rows padded with
+    /// `NO_PROBE` when there are fewer probes).
+    pub nearest_table: u32,
 }
+
+/// Entries per row of the nearest-probe table ([`PackedSelection::nearest_table`]).
+pub(crate) const NEAREST_ROW: u32 = 16;
 
 fn check_probe(selection: &'static str, probe: u32, probe_count: usize) -> Result<(), UploadError> {
     if probe != NO_PROBE && probe as usize >= probe_count {
@@ -590,6 +597,7 @@ impl PackedSelection {
             kd_count: 0,
             neighbour_table: 0,
             neighbour_resolution: 0,
+            nearest_table: 0,
         };
         match selection {
             ProbeSelection::Grid(grid) => {
@@ -704,6 +712,23 @@ impl PackedSelection {
                 probe_count,
             )?;
             packed.kd_count = nearest.nodes().len() as u32;
+        }
+        // The nearest-probe table: the candidates beyond the selection's own.
+        check_addressable(
+            "selection",
+            packed.words.len() as u64 + u64::from(NEAREST_ROW) * probe_count as u64,
+            4,
+        )?;
+        packed.nearest_table = packed.words.len() as u32;
+        let tree = probe_index::NearestProbe::new(positions);
+        let mut row = Vec::with_capacity(NEAREST_ROW as usize);
+        for p in positions {
+            tree.nearest_k(*p, NEAREST_ROW as usize, &mut row);
+            packed.words.extend(row.iter().map(|&(probe, _)| probe));
+            packed.words.extend(std::iter::repeat_n(
+                NO_PROBE,
+                NEAREST_ROW as usize - row.len(),
+            ));
         }
         if packed.words.is_empty() {
             packed.words.push(0);
@@ -866,7 +891,7 @@ pub(crate) struct TraceParams {
     pub sky_distance: f32,
     pub thickness_scale: f32,
     pub nearest_candidates: u32,
-    pub pad0: u32,
+    pub nearest_table: u32,
     pub level_offsets: [[u32; 4]; 4],
     pub grid: GridParams,
     pub svo: SvoHeader,
@@ -970,7 +995,7 @@ pub(crate) fn trace_params(
         sky_distance: field.sky_distance,
         thickness_scale: field.thickness_scale,
         nearest_candidates: options.nearest_candidates,
-        pad0: 0,
+        nearest_table: selection.nearest_table,
         level_offsets,
         grid: selection.grid,
         svo: selection.svo,
@@ -1019,6 +1044,46 @@ pub(crate) fn prepare_rays(
             Ok(crate::ray::TraceRay {
                 direction: unit.to_array(),
                 ..*ray
+            })
+        })
+        .collect()
+}
+
+/// Checks surface queries (finite, a unit direction, a known surface flag) and normalises
+/// their directions.
+pub(crate) fn prepare_queries(
+    queries: &[crate::ray::SurfaceQuery],
+) -> Result<Vec<crate::ray::SurfaceQuery>, crate::error::TraceError> {
+    use crate::error::TraceError;
+    let bad = |index, reason| TraceError::BadInput {
+        item: "surface query",
+        index,
+        reason,
+    };
+    queries
+        .iter()
+        .enumerate()
+        .map(|(index, q)| {
+            if !Vec3::from(q.position).is_finite() {
+                return Err(bad(index, "the position is not finite"));
+            }
+            let direction = Vec3::from(q.direction);
+            if !direction.is_finite() {
+                return Err(bad(index, "the direction is not finite"));
+            }
+            let unit = direction.normalize_or_zero();
+            if unit == Vec3::ZERO {
+                return Err(bad(index, "the direction is zero"));
+            }
+            if q.surface > 1 {
+                return Err(bad(
+                    index,
+                    "`surface` must be 1 (a surface point) or 0 (an escaped ray)",
+                ));
+            }
+            Ok(crate::ray::SurfaceQuery {
+                direction: unit.to_array(),
+                ..*q
             })
         })
         .collect()

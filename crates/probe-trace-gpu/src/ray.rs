@@ -43,6 +43,59 @@ impl TraceRay {
     }
 }
 
+/// A point whose radiance the probes are asked for (32 bytes), for the hybrid tracer: the
+/// geometry comes from an exact ray cast (a BVH, or a renderer's ray queries), the radiance
+/// from the probes that see the point ([`crate::Tracer::look_up`]). WGSL mirror (it shares the
+/// trace's binding 1, read there as a [`TraceRay`] whose `t_min` and `t_max` hold the bits of
+/// `normal` and `surface`):
+///
+/// ```wgsl
+/// struct SurfaceQuery { position: vec3<f32>, normal: u32, direction: vec3<f32>, surface: u32 }
+/// ```
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct SurfaceQuery {
+    /// The surface point (or, for an escaped ray, where it started), world space.
+    pub position: [f32; 3],
+    /// The surface's unit normal on the side the point is seen from, as two octahedral
+    /// snorm16 coordinates (x in the low half; `0x8000`: unknown). [`Self::surface`] packs it.
+    pub normal: u32,
+    /// The direction the point is seen along (the ray's), unit length.
+    pub direction: [f32; 3],
+    /// 1: a surface point; 0: the ray left the scene, and the answer is the sky the probes
+    /// saw along `direction`.
+    pub surface: u32,
+}
+
+impl SurfaceQuery {
+    /// The surface point `position` with normal `normal` (either side: it is turned towards
+    /// the viewer), seen along `direction`.
+    pub fn surface(position: Vec3, normal: Vec3, direction: Vec3) -> Self {
+        let direction = direction.normalize_or_zero();
+        let normal = if normal.dot(direction) > 0.0 {
+            -normal
+        } else {
+            normal
+        };
+        Self {
+            position: position.to_array(),
+            normal: crate::surface::pack_normal(normal.normalize_or_zero()),
+            direction: direction.to_array(),
+            surface: 1,
+        }
+    }
+
+    /// A ray from `origin` along `direction` that hits nothing.
+    pub fn escaped(origin: Vec3, direction: Vec3) -> Self {
+        Self {
+            position: origin.to_array(),
+            normal: crate::surface::UNKNOWN_NORMAL,
+            direction: direction.normalize_or_zero().to_array(),
+            surface: 0,
+        }
+    }
+}
+
 /// What a probe trace concluded about a ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum RayStatus {
@@ -52,11 +105,15 @@ pub enum RayStatus {
     /// the ray's `t_max` or to its sky distance: radiance is that probe's texel in the ray's
     /// direction (its sky).
     Miss,
-    /// No probe tried could see the whole ray (the cap on probes was reached or the selection
-    /// ran out). The fallback of seed 003 §5.4: radiance is a probe used as an environment
-    /// map in the ray's direction, the selector's best probe for the last decided point (the
-    /// first probe tried if none is selected there); `t` and position mark how far the ray
-    /// was verified empty; the normal is zero.
+    /// No probe tried could see the whole ray (the cap on probes was reached or the
+    /// candidates ran out). The answer is an estimate (seed 003 §5.4's fallback, made local):
+    /// the first candidate for the last decided point that sees that point (else the first
+    /// probe tried) marches the rest of the ray with relaxed rules, taking the first place
+    /// where the ray may meet what it saw as the hit (going behind a texel's surface, or
+    /// crossing its plane at an edge): `t`, position, normal and radiance are that guess's,
+    /// and `probe` the estimating probe. If that probe sees the ray leave, radiance is its
+    /// texel in the ray's direction (its sky), `t` and position mark how far the ray was
+    /// verified empty, and the normal is zero.
     Unknown,
 }
 

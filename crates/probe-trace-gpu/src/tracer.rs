@@ -7,7 +7,7 @@ use crate::cpu::{CpuTracer, DiffuseOutput, TraceOutput};
 use crate::error::{GpuError, TraceError, UploadError};
 use crate::gpu::{GpuContext, GpuTracer};
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
-use crate::ray::{DiffuseOptions, ShadingPoint, TraceOptions, TraceRay};
+use crate::ray::{DiffuseOptions, ShadingPoint, SurfaceQuery, TraceOptions, TraceRay};
 
 /// What both tracers do: check and upload probe data, getting back a field you hold, then
 /// trace rays through it or shade points from it.
@@ -61,6 +61,22 @@ pub trait Tracer {
         &mut self,
         field: &Self::Field,
         rays: &[TraceRay],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError>;
+
+    /// The hybrid tracer's radiance: for each surface point found by an exact ray cast, the
+    /// radiance the probes that see it hold ([`SurfaceQuery`]), one result per query, in
+    /// order. HIT: a probe's texel shows the point (within its depth band); UNKNOWN: none of
+    /// the candidates does, and the one whose texel comes closest answers; MISS: an escaped
+    /// ray, the probes' sky along its direction. `options` gives the candidates
+    /// (`nearest_candidates`); the march options are not used.
+    ///
+    /// # Errors
+    /// [`TraceError::BadInput`] for a bad query; otherwise as [`Self::trace`].
+    fn look_up(
+        &mut self,
+        field: &Self::Field,
+        queries: &[SurfaceQuery],
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError>;
 
@@ -124,6 +140,12 @@ trait ErasedTracer: Send {
         rays: &[TraceRay],
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError>;
+    fn look_up(
+        &mut self,
+        field: &AnyField,
+        queries: &[SurfaceQuery],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError>;
     fn shade_diffuse(
         &mut self,
         irradiance: &AnyIrradiance,
@@ -178,6 +200,21 @@ where
             });
         };
         Tracer::trace(self, own, rays, options)
+    }
+
+    fn look_up(
+        &mut self,
+        field: &AnyField,
+        queries: &[SurfaceQuery],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let Some(own) = field.inner.downcast_ref::<T::Field>() else {
+            return Err(TraceError::ForeignField {
+                uploaded_by: field.uploaded_by.clone(),
+                tracer: Tracer::describe(self),
+            });
+        };
+        Tracer::look_up(self, own, queries, options)
     }
 
     fn shade_diffuse(
@@ -269,6 +306,15 @@ impl Tracer for AnyTracer {
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError> {
         self.inner.trace(field, rays, options)
+    }
+
+    fn look_up(
+        &mut self,
+        field: &AnyField,
+        queries: &[SurfaceQuery],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        self.inner.look_up(field, queries, options)
     }
 
     fn shade_diffuse(

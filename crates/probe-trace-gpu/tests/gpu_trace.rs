@@ -12,7 +12,8 @@ use probe_index::{
 use probe_scene::Scene;
 use probe_trace_gpu::{
     CpuTracer, DiffuseOptions, FieldOptions, GpuContext, Interpolation, ProbeSelection, RayResult,
-    RayStatus, ShadingPoint, TraceError, TraceMethod, TraceOptions, TraceRay, TraceSummary, Tracer,
+    RayStatus, ShadingPoint, SurfaceQuery, TraceError, TraceMethod, TraceOptions, TraceRay,
+    TraceSummary, Tracer,
 };
 use support::{
     LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
@@ -296,4 +297,79 @@ fn child_without_adapter() {
     let error = GpuContext::new().expect_err("no adapter with WGPU_BACKEND=metal");
     println!("error: {error}");
     assert!(gpu_tracer().is_none());
+}
+
+/// The hybrid tracer's look-up: exact BVH hits of Cornell reflection rays, their radiance from
+/// the probes that see them. GPU and CPU give the same answers, and the answers are the true
+/// surfaces' (the mini capture's radiance is the albedo, the same from every side).
+#[test]
+fn look_up_agrees_with_the_cpu_and_the_truth() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let shade = albedo_shade(&scene);
+    let grid = cornell_grid();
+    let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &shade);
+    let rays = reflection_rays(&scene, &camera_rays(&scene, 48, 36));
+    let mut truth = Vec::new();
+    let queries: Vec<SurfaceQuery> = rays
+        .iter()
+        .map(|ray| match scene.closest_hit(ray, f32::INFINITY) {
+            Some(hit) => {
+                truth.push(Some(shade(&hit, ray.direction)));
+                SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction)
+            }
+            None => {
+                truth.push(None);
+                SurfaceQuery::escaped(ray.origin, ray.direction)
+            }
+        })
+        .collect();
+    let selection = ProbeSelection::Grid(grid);
+    let options = TraceOptions::default();
+    let mut cpu = CpuTracer::new();
+    let cpu_field = cpu
+        .upload(&bake.field(), &selection, &FieldOptions::default())
+        .unwrap();
+    let gpu_field = gpu
+        .upload(&bake.field(), &selection, &FieldOptions::default())
+        .unwrap();
+    let c = cpu.look_up(&cpu_field, &queries, &options).unwrap().results;
+    let g = gpu.look_up(&gpu_field, &queries, &options).unwrap().results;
+    // Everything equal but the unpacked normal, which the device's unpacking may round an
+    // ulp differently.
+    let same = |a: &RayResult, b: &RayResult| {
+        a.normal.abs_diff_eq(b.normal, 1e-5)
+            && RayResult {
+                normal: Vec3::ZERO,
+                ..*a
+            } == RayResult {
+                normal: Vec3::ZERO,
+                ..*b
+            }
+    };
+    if let Some(i) = (0..c.len()).find(|&i| !same(&c[i], &g[i])) {
+        panic!("query {i}: CPU {:?}, GPU {:?}", c[i], g[i]);
+    }
+    let (mut hits, mut right) = (0usize, 0usize);
+    for (result, truth) in c.iter().zip(&truth) {
+        match truth {
+            Some(radiance) => {
+                if result.status == RayStatus::Hit {
+                    hits += 1;
+                    right += usize::from((result.radiance - *radiance).abs().max_element() < 1e-4);
+                }
+            }
+            None => assert_eq!(result.status, RayStatus::Miss),
+        }
+    }
+    let surfaces = truth.iter().filter(|t| t.is_some()).count();
+    eprintln!("look-up: {hits} of {surfaces} surface points seen, {right} with the true radiance");
+    assert!(
+        hits as f64 >= 0.97 * surfaces as f64,
+        "{hits} of {surfaces} seen"
+    );
+    assert!(
+        right as f64 >= 0.98 * hits as f64,
+        "{right} of {hits} right"
+    );
 }

@@ -14,12 +14,12 @@ use probe_index::NO_PROBE;
 use crate::error::{TraceError, UploadError};
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 use crate::packed::{
-    PackedField, PackedIrradiance, PackedSelection, TraceParams, diffuse_params, padded_index,
-    prepare_points, prepare_rays, trace_params,
+    NEAREST_ROW, PackedField, PackedIrradiance, PackedSelection, TraceParams, diffuse_params,
+    padded_index, prepare_points, prepare_rays, trace_params,
 };
 use crate::ray::{
-    DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, Timing, TraceOptions,
-    TraceRay,
+    DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, SurfaceQuery, Timing,
+    TraceOptions, TraceRay,
 };
 use crate::tracer::Tracer;
 use march::{CONTINUE, HIT, MISS, ProbeRay, Segment, UNKNOWN, split_segments};
@@ -177,6 +177,26 @@ impl Tracer for CpuTracer {
         let records = parallel_map(&rays, |ray| {
             trace_ray(field, selection, &params, ray, &mut ())
         });
+        Ok(TraceOutput {
+            results: records.into_iter().map(RayResult::from).collect(),
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu: None,
+            },
+        })
+    }
+
+    fn look_up(
+        &mut self,
+        field: &CpuField,
+        queries: &[SurfaceQuery],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let start = Instant::now();
+        let (field, selection) = (&field.field, &field.selection);
+        let params = trace_params(field, selection, options)?;
+        let queries = crate::packed::prepare_queries(queries)?;
+        let records = parallel_map(&queries, |q| look_up_point(field, selection, &params, q));
         Ok(TraceOutput {
             results: records.into_iter().map(RayResult::from).collect(),
             timing: Timing {
@@ -348,7 +368,9 @@ fn sees_point(field: &PackedField, probe: u32, p: Vec3, fetches: &mut u32) -> bo
 }
 
 /// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order, then the
-/// nearest probes), reporting to `observer` (`&mut ()` for none).
+/// nearest probes), reporting to `observer` (`&mut ()` for none). `gpu/trace.wgsl`'s
+/// `trace_ray` step for step: one loop whose last pass, when no candidate is left or the cap
+/// is reached, is the estimate's relaxed march.
 pub(crate) fn trace_ray<O: RayObserver>(
     field: &PackedField,
     selection: &PackedSelection,
@@ -364,46 +386,94 @@ pub(crate) fn trace_ray<O: RayObserver>(
     let origin = Vec3::from(ray.origin);
     let direction = Vec3::from(ray.direction);
     let mut t = ray.t_min;
-    let mut list = selector.select(origin + direction * t, direction, NO_PROBE);
-    // The probe that failed at `t` (excluded from the list), and whether the list holds the
-    // nearest-probe extension yet.
+    let mut list = select::Candidates::default();
+    // The probe that failed at `t` (the selection leaves it out), and the nearest-probe
+    // table's row that extends the list once its own candidates have failed.
     let mut failed = NO_PROBE;
-    let mut extended = false;
-    let mut next = 0u32;
-    let mut tried = 0u32;
-    let mut fetches = 0u32;
+    let mut reselect = true;
+    let (mut anchor, mut extension, mut extended) = (NO_PROBE, 0u32, false);
+    let mut estimating = false;
+    let (mut next, mut tried, mut fetches) = (0u32, 0u32, 0u32);
     let mut fallback = NO_PROBE;
     let mut record = RayRecord {
         status: UNKNOWN,
         probe: NO_PROBE,
         ..RayRecord::default()
     };
-    while tried < params.max_probes {
-        if next >= list.len {
+    loop {
+        let here = origin + direction * t;
+        if reselect {
+            list = selector.select(here, direction, failed);
+            (next, extension, extended, reselect) = (0, 0, false, false);
+        }
+        let mut probe = NO_PROBE;
+        if tried >= params.max_probes {
+            estimating = true;
+        } else if next >= list.len + extension {
             if extended || params.nearest_candidates == 0 {
-                break;
-            }
-            selector.extend_nearest(&mut list, origin + direction * t, failed);
-            extended = true;
-            if next >= list.len {
-                break;
+                estimating = true;
+            } else {
+                anchor = selector.anchor(here);
+                if anchor != NO_PROBE {
+                    extension = params.nearest_candidates.min(NEAREST_ROW);
+                }
+                extended = true;
+                continue;
             }
         }
-        let probe = list.probes[next as usize];
-        if !sees_point(field, probe, origin + direction * t, &mut fetches) {
-            next += 1;
-            continue;
-        }
-        tried += 1;
-        if fallback == NO_PROBE {
-            fallback = probe;
+        if estimating {
+            // No probe could finish the ray: it stays UNKNOWN, with an estimate (seed 003
+            // §5.4's fallback, made local) by the first candidate that sees the last decided
+            // point (else the first probe tried).
+            for i in 0..list.len + extension {
+                let q = selector.candidate(&list, anchor, failed, i);
+                if q != NO_PROBE && sees_point(field, q, here, &mut fetches) {
+                    probe = q;
+                    break;
+                }
+            }
+            if probe == NO_PROBE {
+                probe = fallback;
+            }
+            record.t = t;
+            record.position = here.to_array();
+            record.probes_tried = tried;
+            if probe == NO_PROBE {
+                break;
+            }
+        } else {
+            probe = selector.candidate(&list, anchor, failed, next);
+            if probe == NO_PROBE || !sees_point(field, probe, here, &mut fetches) {
+                next += 1;
+                continue;
+            }
+            tried += 1;
+            if fallback == NO_PROBE {
+                fallback = probe;
+            }
         }
         let answer = match observer.fetch_log() {
-            Some(log) => trace_probe(field, params, probe, ray, t, false, log),
-            None => trace_probe(field, params, probe, ray, t, false, ()),
+            Some(log) => trace_probe(field, params, probe, ray, t, estimating, log),
+            None => trace_probe(field, params, probe, ray, t, estimating, ()),
         };
-        observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         fetches += answer.fetches;
+        if estimating {
+            // The relaxed march's first place where the ray may meet what the probe saw; if
+            // it sees the ray leave, the radiance in the ray's direction.
+            fetches += 1;
+            let cell = if answer.code == HIT {
+                record.t = answer.t;
+                record.position = (origin + direction * answer.t).to_array();
+                record.normal = crate::surface::unpack_normal(answer.normal).to_array();
+                answer.cell
+            } else {
+                direction_cell(field.resolution, direction)
+            };
+            record.radiance = radiance(field, probe, cell);
+            record.probe = probe;
+            break;
+        }
+        observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         if answer.code == HIT || answer.code == MISS {
             let (cell, normal) = if answer.code == HIT {
                 (answer.cell, crate::surface::unpack_normal(answer.normal))
@@ -425,47 +495,136 @@ pub(crate) fn trace_ray<O: RayObserver>(
         if answer.t > t {
             t = answer.t;
             failed = probe;
-            list = selector.select(origin + direction * t, direction, probe);
-            extended = false;
-            next = 0;
+            reselect = true;
         } else {
             next += 1;
         }
     }
-    // No probe could finish the ray: it stays UNKNOWN, with an estimate (seed 003 §5.4's
-    // fallback, made local). The probe that estimates is the first candidate for the last
-    // decided point that sees it (else the first probe tried); its relaxed march from there
-    // takes the first place where the ray may meet what it saw as the hit, and the radiance
-    // there. If it sees the ray leave, the radiance in the ray's direction.
-    let last = origin + direction * t;
-    let mut estimate = NO_PROBE;
-    for &probe in &list.probes[..list.len as usize] {
-        if sees_point(field, probe, last, &mut fetches) {
-            estimate = probe;
-            break;
-        }
-    }
-    if estimate == NO_PROBE {
-        estimate = fallback;
-    }
-    record.t = t;
-    record.position = last.to_array();
-    record.probes_tried = tried;
-    if estimate != NO_PROBE {
-        let answer = trace_probe(field, params, estimate, ray, t, true, ());
-        fetches += answer.fetches + 1;
-        let cell = if answer.code == HIT {
-            record.t = answer.t;
-            record.position = (origin + direction * answer.t).to_array();
-            record.normal = crate::surface::unpack_normal(answer.normal).to_array();
-            answer.cell
-        } else {
-            direction_cell(field.resolution, direction)
-        };
-        record.radiance = radiance(field, estimate, cell);
-        record.probe = estimate;
-    }
     record.texel_fetches = fetches;
     observer.ray_done(record.status, fetches);
+    record
+}
+
+/// The radiance of one surface point from the probes that see it (the hybrid tracer's second
+/// half; `gpu/trace.wgsl`'s `look_up_point` step for step).
+///
+/// Candidates are the selection's for the point, then (only if none of those sees it) the
+/// nearest probes. A candidate sees the point when it lies on the point's side of the surface
+/// and the texel holding the point's direction shows a surface whose depth band (`near` to
+/// `far`) contains the point's distance (one fetch). The best such probe, by the cosine of its
+/// view of the surface over its distance (edge texels weighed a quarter), answers HIT with its
+/// texel's radiance. If none sees it: UNKNOWN, answered by the candidate whose texel's
+/// distance comes closest to the point's. Escaped rays: MISS, the first candidate's sky along
+/// the direction.
+pub(crate) fn look_up_point(
+    field: &PackedField,
+    selection: &PackedSelection,
+    params: &TraceParams,
+    query: &SurfaceQuery,
+) -> RayRecord {
+    let selector = Selector {
+        params,
+        selection,
+        positions: &field.positions,
+    };
+    let x = Vec3::from(query.position);
+    let direction = Vec3::from(query.direction);
+    let list = selector.select(x, direction, NO_PROBE);
+    let mut record = RayRecord {
+        status: UNKNOWN,
+        probe: NO_PROBE,
+        position: query.position,
+        ..RayRecord::default()
+    };
+    if query.surface == 0 {
+        let probe = if list.len > 0 {
+            list.probes[0]
+        } else {
+            selector.anchor(x)
+        };
+        if probe != NO_PROBE {
+            record.status = MISS;
+            record.radiance = radiance(field, probe, direction_cell(field.resolution, direction));
+            record.probe = probe;
+            record.probes_tried = 1;
+            record.texel_fetches = 1;
+        }
+        return record;
+    }
+    let normal = crate::surface::unpack_normal(query.normal);
+    let n = field.resolution;
+    let (mut best, mut best_cell, mut best_score) = (NO_PROBE, UVec2::ZERO, 0.0f32);
+    let (mut near_miss, mut near_miss_cell, mut near_miss_error) =
+        (NO_PROBE, UVec2::ZERO, f32::INFINITY);
+    let (mut next, mut examined, mut fetches) = (0u32, 0u32, 0u32);
+    let (mut anchor, mut extension, mut extended) = (NO_PROBE, 0u32, false);
+    loop {
+        if next >= list.len + extension {
+            if extended || best != NO_PROBE || params.nearest_candidates == 0 {
+                break;
+            }
+            anchor = selector.anchor(x);
+            if anchor != NO_PROBE {
+                extension = params.nearest_candidates.min(NEAREST_ROW);
+            }
+            extended = true;
+            continue;
+        }
+        let probe = selector.candidate(&list, anchor, NO_PROBE, next);
+        next += 1;
+        if probe == NO_PROBE {
+            continue;
+        }
+        let v = x - field.position(probe);
+        let r = v.length();
+        if r == 0.0 {
+            continue;
+        }
+        let w = v / r;
+        let facing = if normal == Vec3::ZERO {
+            1.0
+        } else {
+            -normal.dot(w)
+        };
+        if facing <= 0.0 {
+            continue;
+        }
+        examined += 1;
+        fetches += 1;
+        let cell = direction_cell(n, w);
+        let texel = field.geometry[padded_index(n, probe, cell.x, cell.y)];
+        let distance = f32::from_bits(texel[0] & !crate::packed::SIGN_BIT);
+        if distance >= params.sky_distance {
+            continue;
+        }
+        let near = f32::from_bits(texel[2]);
+        let far = f32::from_bits(texel[3] & !crate::packed::SIGN_BIT);
+        if r >= near && r <= far {
+            let edge = (texel[0] | texel[3]) & crate::packed::SIGN_BIT != 0;
+            let score = facing / r * if edge { 0.25 } else { 1.0 };
+            if score > best_score {
+                (best, best_cell, best_score) = (probe, cell, score);
+            }
+        } else {
+            let error = (r - distance).abs() / r;
+            if error < near_miss_error {
+                (near_miss, near_miss_cell, near_miss_error) = (probe, cell, error);
+            }
+        }
+    }
+    let (probe, cell) = if best != NO_PROBE {
+        record.status = HIT;
+        (best, best_cell)
+    } else {
+        (near_miss, near_miss_cell)
+    };
+    record.probes_tried = examined;
+    if probe != NO_PROBE {
+        fetches += 1;
+        record.radiance = radiance(field, probe, cell);
+        record.probe = probe;
+        record.normal = normal.to_array();
+    }
+    record.texel_fetches = fetches;
     record
 }

@@ -4,10 +4,10 @@
 use glam::{UVec3, Vec3};
 use probe_index::{NO_PROBE, SVO_LEAF_BIT, SVO_PACKED_BIT};
 
-use crate::packed::{PackedSelection, SELECT_GRID, SELECT_SVO, TraceParams};
+use crate::packed::{NEAREST_ROW, PackedSelection, SELECT_GRID, SELECT_SVO, TraceParams};
 
-/// At most this many candidates: a grid cage (8) and the nearest-probe extension (16).
-pub(crate) const MAX_CANDIDATES: usize = 24;
+/// At most this many candidates of the selection's own (a grid cage).
+pub(crate) const MAX_CANDIDATES: usize = 8;
 
 /// Probes to try, best first.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -17,8 +17,13 @@ pub(crate) struct Candidates {
 }
 
 impl Candidates {
+    /// Whether the list holds `probe`.
+    pub(crate) fn contains(&self, probe: u32) -> bool {
+        self.probes[..self.len as usize].contains(&probe)
+    }
+
     /// Appends `probe` unless it is [`NO_PROBE`], the list is full or already holds it.
-    pub(crate) fn push(&mut self, probe: u32) {
+    fn push(&mut self, probe: u32) {
         if probe == NO_PROBE || self.len as usize >= MAX_CANDIDATES {
             return;
         }
@@ -54,24 +59,30 @@ impl Selector<'_> {
         }
     }
 
-    /// Appends to `list` the `params.nearest_candidates` probes nearest to `position` (nearest
-    /// first, ties to the lower index), leaving out `failed` and those already listed: the
-    /// candidates beyond the selection's own when those have all failed at `position`.
-    pub fn extend_nearest(&self, list: &mut Candidates, position: Vec3, failed: u32) {
-        let mut nearest = [(0u32, 0.0f32); MAX_NEAREST as usize];
-        let k = self.params.nearest_candidates.min(MAX_NEAREST);
-        let count = k_nearest(
+    /// The probe nearest to `position` (ties to the lower index), whose row of the
+    /// nearest-probe table extends the candidates when the selection's own have all failed.
+    pub fn anchor(&self, position: Vec3) -> u32 {
+        nearest_probe(
             &self.selection.words,
             self.params.kd_nodes,
             self.params.kd_count,
             position,
-            k,
-            &mut nearest,
-        );
-        for &(probe, _) in &nearest[..count] {
-            if probe != failed {
-                list.push(probe);
-            }
+        )
+    }
+
+    /// Candidate `i` of `list` extended by the first `extension` entries of `anchor`'s row of
+    /// the nearest-probe table, or [`NO_PROBE`] where the extension holds `failed`, a probe
+    /// of the list or padding (such entries are skipped).
+    pub fn candidate(&self, list: &Candidates, anchor: u32, failed: u32, i: u32) -> u32 {
+        if i < list.len {
+            return list.probes[i as usize];
+        }
+        let at = self.params.nearest_table + anchor * NEAREST_ROW + (i - list.len);
+        let probe = self.selection.words[at as usize];
+        if probe == failed || list.contains(probe) {
+            NO_PROBE
+        } else {
+            probe
         }
     }
 
@@ -210,71 +221,6 @@ impl Selector<'_> {
         }
         out
     }
-}
-
-/// Most probes [`k_nearest`] returns.
-pub(crate) const MAX_NEAREST: u32 = 16;
-
-/// The `k ≤ MAX_NEAREST` probes nearest to `p` in the k-d tree stored at `words[start..]`
-/// (`count` nodes of 4 words), nearest first, ties to the lower probe, into `out`; returns how
-/// many. The search of `probe_index::NearestProbe::nearest_k` with an explicit stack.
-pub(crate) fn k_nearest(
-    words: &[u32],
-    start: u32,
-    count: u32,
-    p: Vec3,
-    k: u32,
-    out: &mut [(u32, f32); MAX_NEAREST as usize],
-) -> usize {
-    let k = k.min(MAX_NEAREST) as usize;
-    let mut len = 0usize;
-    if k == 0 {
-        return 0;
-    }
-    let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
-    stack[0] = (0, count, 0, -1.0);
-    let mut top = 1usize;
-    while top > 0 {
-        top -= 1;
-        let (lo, hi, depth, bound) = stack[top];
-        if lo >= hi || (len == k && bound > out[k - 1].1) {
-            continue;
-        }
-        let mid = (lo + hi) / 2;
-        let at = (start + 4 * mid) as usize;
-        let q = Vec3::new(
-            f32::from_bits(words[at]),
-            f32::from_bits(words[at + 1]),
-            f32::from_bits(words[at + 2]),
-        );
-        let probe = words[at + 3];
-        let d = q - p;
-        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        // Insert (probe, d2) in order unless the list is full of nearer ones.
-        let better = |e: (u32, f32)| d2 < e.1 || (d2 == e.1 && probe < e.0);
-        if len < k || better(out[k - 1]) {
-            let mut i = len.min(k - 1);
-            while i > 0 && better(out[i - 1]) {
-                out[i] = out[i - 1];
-                i -= 1;
-            }
-            out[i] = (probe, d2);
-            len = (len + 1).min(k);
-        }
-        let axis = (depth % 3) as usize;
-        let delta = p[axis] - q[axis];
-        let (near, far) = if delta < 0.0 {
-            ((lo, mid), (mid + 1, hi))
-        } else {
-            ((mid + 1, hi), (lo, mid))
-        };
-        if top + 2 <= stack.len() {
-            stack[top] = (far.0, far.1, depth + 1, delta * delta);
-            stack[top + 1] = (near.0, near.1, depth + 1, -1.0);
-            top += 2;
-        }
-    }
-    len
 }
 
 /// Nearest probe to `p` in the k-d tree stored at `words[start..]` (`count` nodes of 4 words:
@@ -480,50 +426,33 @@ mod tests {
 
     use super::test_boxes::Boxes;
 
-    /// The packed k-nearest search returns what `NearestProbe::nearest_k` does, for every
-    /// selection kind's tree (ties included: a grid has many equidistant probes).
+    /// Every selection packs the nearest-probe table: row `p` is probe `p` and its nearest
+    /// others, as `NearestProbe::nearest_k` orders them (ties included: a grid has many
+    /// equidistant probes), padded with `NO_PROBE` past the probe count.
     #[test]
-    fn k_nearest_matches_probe_index() {
+    fn nearest_table_rows_are_the_nearest_probes() {
         let mut rng = Lcg(23);
         let grid = ProbeGrid::new(Vec3::ZERO, Vec3::splat(0.5), [4, 3, 5]).unwrap();
         let random: Vec<Vec3> = (0..70)
             .map(|_| rng.point(Vec3::ZERO, Vec3::new(3.0, 2.0, 4.0)))
             .collect();
-        for positions in [grid.positions(), random] {
+        let small = ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [2, 2, 2]).unwrap();
+        for (positions, selection) in [
+            (grid.positions(), ProbeSelection::Grid(grid)),
+            (random[..8].to_vec(), ProbeSelection::Grid(small)),
+        ] {
+            let packed = PackedSelection::new(&selection, &positions).unwrap();
             let reference = NearestProbe::new(&positions);
-            let packed =
-                PackedSelection::new(&ProbeSelection::Grid(grid), &positions[..60]).unwrap();
-            let _ = packed;
-            let packed = PackedSelection::new(
-                &ProbeSelection::Grid(ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [2, 2, 2]).unwrap()),
-                &positions[..8],
-            )
-            .unwrap();
-            assert_eq!(packed.kd_count, 8);
-            let nodes: Vec<u32> = reference
-                .nodes()
-                .iter()
-                .flat_map(|n| {
-                    [
-                        n.position[0].to_bits(),
-                        n.position[1].to_bits(),
-                        n.position[2].to_bits(),
-                        n.probe,
-                    ]
-                })
-                .collect();
             let mut expected = Vec::new();
-            let mut got = [(0u32, 0.0f32); MAX_NEAREST as usize];
-            for i in 0..500 {
-                let p = if i % 7 == 0 {
-                    positions[i % positions.len()] + Vec3::splat(0.25)
-                } else {
-                    rng.point(Vec3::splat(-1.0), Vec3::splat(5.0))
-                };
-                let k = (i % 17) as u32;
-                reference.nearest_k(p, k as usize, &mut expected);
-                let count = k_nearest(&nodes, 0, positions.len() as u32, p, k, &mut got);
-                assert_eq!(&got[..count], &expected[..], "k={k} at {p}");
+            for (p, &position) in positions.iter().enumerate() {
+                reference.nearest_k(position, NEAREST_ROW as usize, &mut expected);
+                let at = (packed.nearest_table + p as u32 * NEAREST_ROW) as usize;
+                let row = &packed.words[at..at + NEAREST_ROW as usize];
+                assert_eq!(row[0], p as u32, "probe {p} heads its own row");
+                for (j, &probe) in row.iter().enumerate() {
+                    let want = expected.get(j).map_or(NO_PROBE, |e| e.0);
+                    assert_eq!(probe, want, "row {p}, entry {j}");
+                }
             }
         }
     }

@@ -18,8 +18,8 @@ use crate::packed::{
     trace_params,
 };
 use crate::ray::{
-    DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, Timing, TraceOptions,
-    TraceRay,
+    DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, SurfaceQuery, Timing,
+    TraceOptions, TraceRay,
 };
 use crate::tracer::Tracer;
 
@@ -34,6 +34,10 @@ pub const TRACE_WGSL: &str = concat!(include_str!("common.wgsl"), include_str!("
 pub const DIFFUSE_WGSL: &str = concat!(include_str!("common.wgsl"), include_str!("diffuse.wgsl"));
 /// The trace shader's entry point.
 pub const TRACE_ENTRY_POINT: &str = "trace_main";
+/// The trace shader's second entry point: the hybrid tracer's radiance look-up of surface
+/// points ([`Tracer::look_up`]), with the same bind group layout, binding 1 holding
+/// [`SurfaceQuery`]s instead of rays.
+pub const LOOK_UP_ENTRY_POINT: &str = "look_up_main";
 /// The diffuse shader's entry point.
 pub const DIFFUSE_ENTRY_POINT: &str = "diffuse_main";
 /// Threads per workgroup in both shaders (`@workgroup_size(64)`): one ray or point each.
@@ -430,6 +434,7 @@ pub struct GpuTracer {
     adapter: Option<String>,
     timestamps: Option<Timestamps>,
     trace_pass: Pass,
+    look_up_pass: Pass,
     diffuse_pass: Pass,
     trace_io: Option<Io>,
     diffuse_io: Option<Io>,
@@ -582,6 +587,13 @@ impl GpuTracer {
             TRACE_ENTRY_POINT,
             &trace_bind_group_layout_entries(),
         );
+        let look_up_pass = make_pass(
+            &device,
+            "probe look-up",
+            TRACE_WGSL,
+            LOOK_UP_ENTRY_POINT,
+            &trace_bind_group_layout_entries(),
+        );
         let diffuse_pass = make_pass(
             &device,
             "probe diffuse",
@@ -624,6 +636,7 @@ impl GpuTracer {
             adapter: None,
             timestamps,
             trace_pass,
+            look_up_pass,
             diffuse_pass,
             trace_io: None,
             diffuse_io: None,
@@ -808,6 +821,18 @@ impl GpuTracer {
         buffers: &TraceBuffers<'_>,
         options: &TraceOptions,
     ) -> Result<TraceBinding, TraceError> {
+        self.bind_pass(&self.trace_pass, "probe trace", field, buffers, options)
+    }
+
+    /// [`Self::bind_trace`] for the trace pipeline or the look-up's.
+    fn bind_pass(
+        &self,
+        pass: &Pass,
+        label: &'static str,
+        field: &GpuField,
+        buffers: &TraceBuffers<'_>,
+        options: &TraceOptions,
+    ) -> Result<TraceBinding, TraceError> {
         self.check_owner(field.tracer)?;
         let mut params = trace_params(&field.meta, &field.selection, options)?;
         let (ray_size, record_size) = (size_of::<TraceRay>() as u64, size_of::<RayRecord>() as u64);
@@ -822,8 +847,8 @@ impl GpuTracer {
         params.threads_per_row = io.threads_per_row;
         Ok(TraceBinding {
             bound: self.bound(
-                &self.trace_pass,
-                "probe trace",
+                pass,
+                label,
                 &params,
                 io,
                 [
@@ -854,6 +879,21 @@ impl GpuTracer {
     ) -> Result<(), TraceError> {
         self.bind_trace(field, buffers, options)?.record(encoder);
         Ok(())
+    }
+
+    /// Binds a radiance look-up of `buffers.count` [`SurfaceQuery`]s (in `buffers.rays`,
+    /// 32 bytes each like rays) into `buffers.results` ([`RayRecord`]s) through `field`: the
+    /// hybrid tracer's second half ([`Tracer::look_up`]), recorded like a trace.
+    ///
+    /// # Errors
+    /// As [`Self::bind_trace`].
+    pub fn bind_look_up(
+        &self,
+        field: &GpuField,
+        buffers: &TraceBuffers<'_>,
+        options: &TraceOptions,
+    ) -> Result<TraceBinding, TraceError> {
+        self.bind_pass(&self.look_up_pass, "probe look-up", field, buffers, options)
     }
 
     /// Binds diffuse shading of `buffers.count` points from `buffers.points` into
@@ -1068,40 +1108,22 @@ impl Tracer for GpuTracer {
         self.check_owner(field.tracer)?;
         trace_params(&field.meta, &field.selection, options)?;
         let rays = prepare_rays(rays)?;
-        let chunk = self.chunk_limit(size_of::<TraceRay>(), size_of::<RayRecord>());
-        ensure_io::<TraceRay, RayRecord>(
-            &self.device,
-            &mut self.trace_io,
-            rays.len().min(chunk),
-            "trace",
-        );
-        let io = self.trace_io.as_ref().expect("ensured above");
-        let mut results = Vec::with_capacity(rays.len());
-        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
-        for part in rays.chunks(chunk) {
-            let binding = self.bind_trace(
-                field,
-                &TraceBuffers {
-                    rays: &io.input,
-                    results: &io.output,
-                    count: part.len() as u32,
-                },
-                options,
-            )?;
-            let (records, time) =
-                self.run::<RayRecord>(&binding.bound, io, bytemuck::cast_slice(part))?;
-            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
-                *total += t;
-            }
-            results.extend(records.into_iter().map(RayResult::from));
-        }
-        Ok(TraceOutput {
-            results,
-            timing: Timing {
-                wall: start.elapsed(),
-                gpu,
-            },
-        })
+        self.run_records(field, &rays, options, false, start)
+    }
+
+    /// Looks up `queries` (checked and normalised on the CPU) chunk by chunk through
+    /// [`GpuTracer::bind_look_up`] and reads the results back.
+    fn look_up(
+        &mut self,
+        field: &GpuField,
+        queries: &[SurfaceQuery],
+        options: &TraceOptions,
+    ) -> Result<TraceOutput, TraceError> {
+        let start = Instant::now();
+        self.check_owner(field.tracer)?;
+        trace_params(&field.meta, &field.selection, options)?;
+        let queries = crate::packed::prepare_queries(queries)?;
+        self.run_records(field, &queries, options, true, start)
     }
 
     /// Shades `points`: checked on the CPU, then chunk by chunk through
@@ -1147,6 +1169,56 @@ impl Tracer for GpuTracer {
             }));
         }
         Ok(DiffuseOutput {
+            results,
+            timing: Timing {
+                wall: start.elapsed(),
+                gpu,
+            },
+        })
+    }
+}
+
+impl GpuTracer {
+    /// The convenience trace or look-up: `items` (rays or queries, 32 bytes each) written
+    /// chunk by chunk into the tracer's buffers, dispatched and read back.
+    fn run_records<In: Pod>(
+        &mut self,
+        field: &GpuField,
+        items: &[In],
+        options: &TraceOptions,
+        look_up: bool,
+        start: Instant,
+    ) -> Result<TraceOutput, TraceError> {
+        let rays = items;
+        let chunk = self.chunk_limit(size_of::<TraceRay>(), size_of::<RayRecord>());
+        ensure_io::<TraceRay, RayRecord>(
+            &self.device,
+            &mut self.trace_io,
+            rays.len().min(chunk),
+            "trace",
+        );
+        let io = self.trace_io.as_ref().expect("ensured above");
+        let mut results = Vec::with_capacity(rays.len());
+        let mut gpu = self.timestamps.as_ref().map(|_| Duration::ZERO);
+        for part in rays.chunks(chunk) {
+            let buffers = TraceBuffers {
+                rays: &io.input,
+                results: &io.output,
+                count: part.len() as u32,
+            };
+            let binding = if look_up {
+                self.bind_look_up(field, &buffers, options)?
+            } else {
+                self.bind_trace(field, &buffers, options)?
+            };
+            let (records, time) =
+                self.run::<RayRecord>(&binding.bound, io, bytemuck::cast_slice(part))?;
+            if let (Some(total), Some(t)) = (gpu.as_mut(), time) {
+                *total += t;
+            }
+            results.extend(records.into_iter().map(RayResult::from));
+        }
+        Ok(TraceOutput {
             results,
             timing: Timing {
                 wall: start.elapsed(),

@@ -144,6 +144,7 @@ fn shared_structs_match_the_wgsl_layout() {
                 "nearest_candidates",
                 offset_of!(TraceParams, nearest_candidates),
             ),
+            ("nearest_table", offset_of!(TraceParams, nearest_table)),
             ("level_offsets", offset_of!(TraceParams, level_offsets)),
             ("grid", offset_of!(TraceParams, grid)),
             ("svo", offset_of!(TraceParams, svo)),

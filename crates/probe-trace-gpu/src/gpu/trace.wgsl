@@ -45,7 +45,7 @@ struct TraceParams {
     sky_distance: f32,
     thickness_scale: f32,
     nearest_candidates: u32,
-    pad0: u32,
+    nearest_table: u32,
     level_offsets: array<vec4<u32>, 4>,
     grid: GridParams,
     svo: SvoHeader,
@@ -82,7 +82,10 @@ struct RayRecord {
 }
 
 @group(0) @binding(0) var<uniform> params: TraceParams;
-@group(0) @binding(1) var<storage, read> rays: array<TraceRay>;
+// The rays (TraceRay, 32 bytes: two words of four each), or the look-up's surface queries in
+// the same layout (src/ray.rs SurfaceQuery). Read as raw words so that the query's integer
+// fields keep their bits.
+@group(0) @binding(1) var<storage, read> ray_words: array<vec4<u32>>;
 @group(0) @binding(2) var<storage, read_write> records: array<RayRecord>;
 @group(0) @binding(3) var<storage, read> positions: array<vec4<f32>>;
 // Per padded texel: radial distance bits (sign: farther edge), packed normal, near bits, far
@@ -398,12 +401,63 @@ fn pass_prefix(lo: f32, n: vec3<f32>, c: f32, ta: f32, tb: f32) -> f32 {
     return min(t, tb);
 }
 
+// The estimate's fine test (src/cpu/march.rs, `relaxed`): where the strict test hands the
+// ray on, a guessed hit at the texel's entry; edges and back faces do not stop a crossing.
+fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
+    let n = params.resolution;
+    let texel = geometry[padded_index(n, cur_probe, cell)];
+    let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
+    if (distance >= params.sky_distance) {
+        return outcome_continue();
+    }
+    let near = bitcast<f32>(texel.z);
+    let far = bitcast<f32>(texel.w & ~SIGN_BIT);
+    let ra = radius(ta);
+    let rb = radius(tb);
+    if (max(ra, rb) < near) {
+        return outcome_continue();
+    }
+    if (ra > far) {
+        return Outcome(HIT, ta, cell, texel.y);
+    }
+    let normal = unpack_normal(texel.y);
+    let center = octa_decode(texel_center(n, cell));
+    let surface = texel_surface(n, center, distance, normal, params.thickness_scale);
+    let nv = surface.visible_normal;
+    let sa = dot(ray_o + ray_d * ta - center * distance, nv);
+    let k = dot(ray_d, nv);
+    let sb = sa + (tb - ta) * k;
+    if (sa < -surface.thickness) {
+        if (ra >= near) {
+            return Outcome(HIT, ta, cell, texel.y);
+        }
+        return outcome_continue();
+    }
+    if (sa >= 0.0 && sb >= 0.0) {
+        return outcome_continue();
+    }
+    if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
+        if (sa < -surface.plane_thickness) {
+            return Outcome(HIT, ta, cell, texel.y);
+        }
+        return outcome_continue();
+    }
+    var t = ta;
+    if (sa > 0.0) {
+        t = min(ta - sa / k, tb);
+    }
+    return Outcome(HIT, t, cell, texel.y);
+}
+
 fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     fetches += 1u;
+    if (relaxed) {
+        return fine_test_relaxed(cell, ta, tb);
+    }
     let n = params.resolution;
     let texel = geometry[padded_index(n, cur_probe, cell)];
     let farther_edge = (texel.x & SIGN_BIT) != 0u;
-    let nearer_edge = (texel.w & SIGN_BIT) != 0u && !relaxed;
+    let nearer_edge = (texel.w & SIGN_BIT) != 0u;
     let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
     if (distance >= params.sky_distance && !nearer_edge) {
         return outcome_continue();
@@ -415,13 +469,8 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     if (max(ra, rb) < near) {
         return outcome_continue();
     }
-    // Where the strict test hands the ray on, the relaxed one guesses a hit.
-    var hidden = outcome_unknown(ta);
-    if (relaxed) {
-        hidden = Outcome(HIT, ta, cell, texel.y);
-    }
     if (ra > far || nearer_edge) {
-        return hidden;
+        return outcome_unknown(ta);
     }
     let normal = unpack_normal(texel.y);
     let center = octa_decode(texel_center(n, cell));
@@ -432,7 +481,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     let sb = sa + (tb - ta) * k;
     if (sa < -surface.thickness) {
         if (ra >= near) {
-            return hidden;
+            return outcome_unknown(ta);
         }
         return outcome_continue();
     }
@@ -441,11 +490,11 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
         if (sa < -surface.plane_thickness) {
-            return hidden;
+            return outcome_unknown(ta);
         }
         return outcome_continue();
     }
-    if (!relaxed && (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0))) {
+    if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
         return outcome_unknown(ta);
     }
     var t = ta;
@@ -634,11 +683,11 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, relax: bool) -> ProbeAns
 
 // ---- selection (src/cpu/select.rs) ----
 
-const MAX_CANDIDATES: u32 = 24u;
-const MAX_NEAREST: u32 = 16u;
+const MAX_CANDIDATES: u32 = 8u;
+const NEAREST_ROW: u32 = 16u;
 
 struct Candidates {
-    probes: array<u32, 24>,
+    probes: array<u32, 8>,
     len: u32,
 }
 
@@ -774,92 +823,26 @@ fn select_voronoi(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Can
     return out;
 }
 
-// The k <= MAX_NEAREST probes nearest to p, nearest first, ties to the lower probe, appended
-// to the list (leaving out `failed`): src/cpu/select.rs k_nearest and extend_nearest.
-fn extend_nearest(list: ptr<function, Candidates>, p: vec3<f32>, failed: u32) {
-    let k = min(params.nearest_candidates, MAX_NEAREST);
-    if (k == 0u) {
-        return;
-    }
-    var best_probe: array<u32, 16>;
-    var best_d2: array<f32, 16>;
-    var len = 0u;
-    var stack_lo: array<u32, 64>;
-    var stack_hi: array<u32, 64>;
-    var stack_depth: array<u32, 64>;
-    var stack_bound: array<f32, 64>;
-    stack_lo[0] = 0u;
-    stack_hi[0] = params.kd_count;
-    stack_depth[0] = 0u;
-    stack_bound[0] = -1.0;
-    var top = 1u;
-    loop {
-        if (top == 0u) {
-            break;
-        }
-        top -= 1u;
-        let lo = stack_lo[top];
-        let hi = stack_hi[top];
-        let depth = stack_depth[top];
-        let bound = stack_bound[top];
-        if (lo >= hi || (len == k && bound > best_d2[k - 1u])) {
-            continue;
-        }
-        let mid = (lo + hi) / 2u;
-        let at = params.kd_nodes + 4u * mid;
-        let q = vec3<f32>(bitcast<f32>(words[at]), bitcast<f32>(words[at + 1u]), bitcast<f32>(words[at + 2u]));
-        let probe = words[at + 3u];
-        let d = q - p;
-        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        let worst = k - 1u;
-        if (len < k || d2 < best_d2[worst] || (d2 == best_d2[worst] && probe < best_probe[worst])) {
-            var i = min(len, worst);
-            loop {
-                if (i == 0u) {
-                    break;
-                }
-                let e_d2 = best_d2[i - 1u];
-                let e_probe = best_probe[i - 1u];
-                if (!(d2 < e_d2 || (d2 == e_d2 && probe < e_probe))) {
-                    break;
-                }
-                best_d2[i] = e_d2;
-                best_probe[i] = e_probe;
-                i -= 1u;
-            }
-            best_d2[i] = d2;
-            best_probe[i] = probe;
-            len = min(len + 1u, k);
-        }
-        let axis = depth % 3u;
-        let delta = p[axis] - q[axis];
-        var near_lo = mid + 1u;
-        var near_hi = hi;
-        var far_lo = lo;
-        var far_hi = mid;
-        if (delta < 0.0) {
-            near_lo = lo;
-            near_hi = mid;
-            far_lo = mid + 1u;
-            far_hi = hi;
-        }
-        if (top + 2u <= 64u) {
-            stack_lo[top] = far_lo;
-            stack_hi[top] = far_hi;
-            stack_depth[top] = depth + 1u;
-            stack_bound[top] = delta * delta;
-            stack_lo[top + 1u] = near_lo;
-            stack_hi[top + 1u] = near_hi;
-            stack_depth[top + 1u] = depth + 1u;
-            stack_bound[top + 1u] = -1.0;
-            top += 2u;
+fn list_contains(list: Candidates, probe: u32) -> bool {
+    for (var i = 0u; i < list.len; i++) {
+        if (list.probes[i] == probe) {
+            return true;
         }
     }
-    for (var i = 0u; i < len; i++) {
-        if (best_probe[i] != failed) {
-            push_candidate(list, best_probe[i]);
-        }
+    return false;
+}
+
+// Candidate i of the list extended by the anchor's row of the nearest-probe table, or NO_PROBE
+// for an extension entry to skip (src/cpu/select.rs Selector::candidate).
+fn candidate(list: Candidates, anchor: u32, failed: u32, i: u32) -> u32 {
+    if (i < list.len) {
+        return list.probes[i];
     }
+    let probe = words[params.nearest_table + anchor * NEAREST_ROW + (i - list.len)];
+    if (probe == failed || list_contains(list, probe)) {
+        return NO_PROBE;
+    }
+    return probe;
 }
 
 fn select_probes(position: vec3<f32>, direction: vec3<f32>, failed: u32) -> Candidates {
@@ -892,14 +875,22 @@ fn sees_point(probe: u32, p: vec3<f32>) -> bool {
     return r <= bitcast<f32>(texel.w & ~SIGN_BIT);
 }
 
+// One ray (src/cpu/mod.rs trace_ray): candidates in the selection's order, then the nearest
+// probes, skipping those that cannot see the point the ray restarts from; when none is left
+// (or the cap is reached), one more march, relaxed, by the estimating probe. trace_probe and
+// select_probes each have one call site, so the march is compiled once.
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
     let direction = ray.direction;
     var t = ray.t_min;
-    var list = select_probes(origin + direction * t, direction, NO_PROBE);
+    var list: Candidates;
     var failed = NO_PROBE;
+    var reselect = true;
+    var anchor = NO_PROBE;
+    var extension = 0u;
     var extended = false;
+    var estimating = false;
     var next = 0u;
     var tried = 0u;
     var fallback = NO_PROBE;
@@ -911,29 +902,71 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     record.pad0 = 0u;
     record.pad1 = 0u;
     loop {
+        let here = origin + direction * t;
+        if (reselect) {
+            list = select_probes(here, direction, failed);
+            next = 0u;
+            extension = 0u;
+            extended = false;
+            reselect = false;
+        }
+        var probe = NO_PROBE;
         if (tried >= params.max_probes) {
+            estimating = true;
+        } else if (next >= list.len + extension) {
+            if (extended || params.nearest_candidates == 0u) {
+                estimating = true;
+            } else {
+                anchor = nearest_probe(params.kd_nodes, params.kd_count, here);
+                if (anchor != NO_PROBE) {
+                    extension = min(params.nearest_candidates, NEAREST_ROW);
+                }
+                extended = true;
+                continue;
+            }
+        }
+        if (estimating) {
+            for (var i = 0u; i < list.len + extension; i++) {
+                let q = candidate(list, anchor, failed, i);
+                if (q != NO_PROBE && sees_point(q, here)) {
+                    probe = q;
+                    break;
+                }
+            }
+            if (probe == NO_PROBE) {
+                probe = fallback;
+            }
+            record.t = t;
+            record.position = here;
+            record.probes_tried = tried;
+            if (probe == NO_PROBE) {
+                break;
+            }
+        } else {
+            probe = candidate(list, anchor, failed, next);
+            if (probe == NO_PROBE || !sees_point(probe, here)) {
+                next += 1u;
+                continue;
+            }
+            tried += 1u;
+            if (fallback == NO_PROBE) {
+                fallback = probe;
+            }
+        }
+        let answer = trace_probe(probe, ray, t, estimating);
+        if (estimating) {
+            fetches += 1u;
+            var cell = texel_containing(params.resolution, direction);
+            if (answer.code == HIT) {
+                record.t = answer.t;
+                record.position = origin + direction * answer.t;
+                record.normal = unpack_normal(answer.normal);
+                cell = answer.cell;
+            }
+            record.radiance = radiance_at(probe, cell);
+            record.probe = probe;
             break;
         }
-        if (next >= list.len) {
-            if (extended || params.nearest_candidates == 0u) {
-                break;
-            }
-            extend_nearest(&list, origin + direction * t, failed);
-            extended = true;
-            if (next >= list.len) {
-                break;
-            }
-        }
-        let probe = list.probes[next];
-        if (!sees_point(probe, origin + direction * t)) {
-            next += 1u;
-            continue;
-        }
-        tried += 1u;
-        if (fallback == NO_PROBE) {
-            fallback = probe;
-        }
-        let answer = trace_probe(probe, ray, t, false);
         if (answer.code == HIT || answer.code == MISS) {
             var cell = answer.cell;
             var normal = vec3<f32>(0.0);
@@ -956,44 +989,156 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         if (answer.t > t) {
             t = answer.t;
             failed = probe;
-            list = select_probes(origin + direction * t, direction, probe);
-            extended = false;
-            next = 0u;
+            reselect = true;
         } else {
             next += 1u;
         }
     }
-    // The estimate of an UNKNOWN ray (src/cpu/mod.rs): the relaxed march of the first
-    // candidate that sees the last decided point.
-    let last = origin + direction * t;
-    var estimate = NO_PROBE;
-    for (var i = 0u; i < list.len; i++) {
-        if (sees_point(list.probes[i], last)) {
-            estimate = list.probes[i];
-            break;
+    record.texel_fetches = fetches;
+    return record;
+}
+
+fn load_ray(index: u32) -> TraceRay {
+    let a = ray_words[2u * index];
+    let b = ray_words[2u * index + 1u];
+    return TraceRay(bitcast<vec3<f32>>(a.xyz), bitcast<f32>(a.w), bitcast<vec3<f32>>(b.xyz), bitcast<f32>(b.w));
+}
+
+// The radiance of one surface point from the probes that see it (src/cpu/mod.rs
+// look_up_point): the hybrid tracer's second half. The query is read from the ray binding
+// as raw words: position, packed normal, direction, surface flag.
+fn look_up_point(index: u32) -> RayRecord {
+    fetches = 0u;
+    let a = ray_words[2u * index];
+    let b = ray_words[2u * index + 1u];
+    let x = bitcast<vec3<f32>>(a.xyz);
+    let direction = bitcast<vec3<f32>>(b.xyz);
+    let surface = b.w;
+    let list = select_probes(x, direction, NO_PROBE);
+    var record: RayRecord;
+    record.status = UNKNOWN;
+    record.probe = NO_PROBE;
+    record.position = x;
+    record.t = 0.0;
+    record.normal = vec3<f32>(0.0);
+    record.radiance = vec3<f32>(0.0);
+    record.probes_tried = 0u;
+    record.texel_fetches = 0u;
+    record.pad0 = 0u;
+    record.pad1 = 0u;
+    let n = params.resolution;
+    if (surface == 0u) {
+        var probe = NO_PROBE;
+        if (list.len > 0u) {
+            probe = list.probes[0];
+        } else {
+            probe = nearest_probe(params.kd_nodes, params.kd_count, x);
         }
+        if (probe != NO_PROBE) {
+            record.status = MISS;
+            record.radiance = radiance_at(probe, texel_containing(n, direction));
+            record.probe = probe;
+            record.probes_tried = 1u;
+            record.texel_fetches = 1u;
+        }
+        return record;
     }
-    if (estimate == NO_PROBE) {
-        estimate = fallback;
-    }
-    record.t = t;
-    record.position = last;
-    record.probes_tried = tried;
-    if (estimate != NO_PROBE) {
-        let answer = trace_probe(estimate, ray, t, true);
+    let normal = unpack_normal(a.w);
+    var best = NO_PROBE;
+    var best_cell = vec2<u32>(0u);
+    var best_score = 0.0;
+    var near_miss = NO_PROBE;
+    var near_miss_cell = vec2<u32>(0u);
+    var near_miss_error = bitcast<f32>(0x7f800000u);
+    var next = 0u;
+    var examined = 0u;
+    var anchor = NO_PROBE;
+    var extension = 0u;
+    var extended = false;
+    loop {
+        if (next >= list.len + extension) {
+            if (extended || best != NO_PROBE || params.nearest_candidates == 0u) {
+                break;
+            }
+            anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
+            if (anchor != NO_PROBE) {
+                extension = min(params.nearest_candidates, NEAREST_ROW);
+            }
+            extended = true;
+            continue;
+        }
+        let probe = candidate(list, anchor, NO_PROBE, next);
+        next += 1u;
+        if (probe == NO_PROBE) {
+            continue;
+        }
+        let v = x - positions[probe].xyz;
+        let r = length(v);
+        if (r == 0.0) {
+            continue;
+        }
+        let w = v / r;
+        var facing = 1.0;
+        if (any(normal != vec3<f32>(0.0))) {
+            facing = -dot(normal, w);
+        }
+        if (facing <= 0.0) {
+            continue;
+        }
+        examined += 1u;
         fetches += 1u;
-        var cell = texel_containing(params.resolution, direction);
-        if (answer.code == HIT) {
-            record.t = answer.t;
-            record.position = origin + direction * answer.t;
-            record.normal = unpack_normal(answer.normal);
-            cell = answer.cell;
+        let cell = texel_containing(n, w);
+        let texel = geometry[padded_index(n, probe, cell)];
+        let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
+        if (distance >= params.sky_distance) {
+            continue;
         }
-        record.radiance = radiance_at(estimate, cell);
-        record.probe = estimate;
+        let near = bitcast<f32>(texel.z);
+        let far = bitcast<f32>(texel.w & ~SIGN_BIT);
+        if (r >= near && r <= far) {
+            var score = facing / r;
+            if (((texel.x | texel.w) & SIGN_BIT) != 0u) {
+                score = score * 0.25;
+            }
+            if (score > best_score) {
+                best = probe;
+                best_cell = cell;
+                best_score = score;
+            }
+        } else {
+            let error = abs(r - distance) / r;
+            if (error < near_miss_error) {
+                near_miss = probe;
+                near_miss_cell = cell;
+                near_miss_error = error;
+            }
+        }
+    }
+    var probe = near_miss;
+    var cell = near_miss_cell;
+    if (best != NO_PROBE) {
+        record.status = HIT;
+        probe = best;
+        cell = best_cell;
+    }
+    record.probes_tried = examined;
+    if (probe != NO_PROBE) {
+        fetches += 1u;
+        record.radiance = radiance_at(probe, cell);
+        record.probe = probe;
+        record.normal = normal;
     }
     record.texel_fetches = fetches;
     return record;
+}
+
+@compute @workgroup_size(64)
+fn look_up_main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let index = id.y * params.threads_per_row + id.x;
+    if (index >= params.ray_count) {
+        return;
+    }
+    records[index] = look_up_point(index);
 }
 
 @compute @workgroup_size(64)
@@ -1002,5 +1147,5 @@ fn trace_main(@builtin(global_invocation_id) id: vec3<u32>) {
     if (index >= params.ray_count) {
         return;
     }
-    records[index] = trace_ray(rays[index]);
+    records[index] = trace_ray(load_ray(index));
 }
