@@ -150,6 +150,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             seconds[k] = s;
             let traced = trace_only(
                 &mut device,
+                &scene,
                 &baked,
                 &index,
                 &view,

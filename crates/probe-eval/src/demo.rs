@@ -402,13 +402,22 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         }
         for selection in [Selection::Grid, Selection::Svo] {
             for tracer in Tracer::ALL {
-                let Some(traced) =
-                    trace_only(&mut device, &baked, &index, &view, &rays, tracer, selection)?
+                let Some(traced) = trace_only(
+                    &mut device,
+                    &scene,
+                    &baked,
+                    &index,
+                    &view,
+                    &rays,
+                    tracer,
+                    selection,
+                )?
                 else {
                     continue;
                 };
                 let Some(twin) = trace_only(
                     &mut device,
+                    &scene,
                     &second,
                     &index,
                     &view,

@@ -66,7 +66,7 @@
 //! // Trace on the CPU twin (the same algorithm as the GPU tracer) and compare.
 //! let mut device = Device::cpu();
 //! let (metrics, image) =
-//!     trace_view(&mut device, &baked, &index, &view, &view.trace_rays(), Tracer::HiZ, Selection::Grid)?
+//!     trace_view(&mut device, &scene, &baked, &index, &view, &view.trace_rays(), Tracer::HiZ, Selection::Grid)?
 //!         .expect("a full grid has a cage selection");
 //! assert_eq!(metrics.rays, view.rays.len());
 //! assert!(metrics.status_agreement > 0.5);

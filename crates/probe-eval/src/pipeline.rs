@@ -14,12 +14,12 @@ use probe_capture::{
     render_gbuffer, trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
-use probe_scene::{Camera, Scene};
+use probe_scene::{Camera, Ray, Scene};
 use probe_trace_gpu::Tracer as _;
 use probe_trace_gpu::{
     AnyField, AnyIrradiance, AnyTracer, CpuTracer, DiffuseOptions, DiffuseOutput, FieldOptions,
     Interpolation, IrradianceField, LightField, ProbeSelection, RayResult, ShadingPoint,
-    TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary,
+    SurfaceQuery, TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
 use serde::{Deserialize, Serialize};
 
@@ -465,7 +465,9 @@ impl Selection {
     }
 }
 
-/// A single-probe trace algorithm.
+/// How a ray is answered: through the light-field probes by one of the two single-probe
+/// marches, or by the hybrid (geometry from the scene's BVH, radiance from the probes that
+/// see the hit: what a renderer with ray tracing would do with the same probes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Tracer {
@@ -473,26 +475,33 @@ pub enum Tracer {
     TwoLevel,
     /// Hi-Z over the min/max pyramid (seed 000 §4.3).
     HiZ,
+    /// Exact hits from the scene's BVH (on the CPU here), radiance from the probes
+    /// ([`probe_trace_gpu::Tracer::look_up`] on the device).
+    Hybrid,
 }
 
 impl Tracer {
-    /// Both tracers.
+    /// The light-field tracers.
     pub const ALL: [Tracer; 2] = [Tracer::TwoLevel, Tracer::HiZ];
+
+    /// The light-field tracers and the hybrid.
+    pub const WITH_HYBRID: [Tracer; 3] = [Tracer::TwoLevel, Tracer::HiZ, Tracer::Hybrid];
 
     /// The name used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             Tracer::TwoLevel => "two-level",
             Tracer::HiZ => "hiz",
+            Tracer::Hybrid => "hybrid",
         }
     }
 
-    /// The tracer's options.
+    /// The tracer's options (the hybrid's look-up uses only the candidate options).
     pub fn options(self) -> TraceOptions {
         TraceOptions {
             method: match self {
                 Tracer::TwoLevel => TraceMethod::TwoLevel,
-                Tracer::HiZ => TraceMethod::HiZ,
+                Tracer::HiZ | Tracer::Hybrid => TraceMethod::HiZ,
             },
             ..TraceOptions::default()
         }
@@ -557,6 +566,53 @@ impl Device {
         Ok(self.tracer.trace(field, rays, options)?)
     }
 
+    /// Answers `rays` with `tracer`: through the probes in `field`, or for
+    /// [`Tracer::Hybrid`] by casting them against `scene`'s BVH and looking the hits' radiance
+    /// up in the probes that see them. The hybrid's results carry the BVH's `t` and position,
+    /// and its wall time covers both halves (no device time is reported for it).
+    ///
+    /// # Errors
+    /// [`EvalError::Trace`].
+    pub fn trace_with(
+        &mut self,
+        scene: &Scene,
+        field: &AnyField,
+        rays: &[TraceRay],
+        tracer: Tracer,
+    ) -> Result<TraceOutput, EvalError> {
+        let options = tracer.options();
+        if tracer != Tracer::Hybrid {
+            return self.trace(field, rays, &options);
+        }
+        let start = Instant::now();
+        let casts: Vec<Ray> = rays
+            .iter()
+            .map(|r| Ray::new(Vec3::from(r.origin), Vec3::from(r.direction)))
+            .collect();
+        let hits = scene.closest_hits(&casts, f32::INFINITY);
+        let queries: Vec<SurfaceQuery> = casts
+            .iter()
+            .zip(&hits)
+            .map(|(ray, hit)| match hit {
+                Some(hit) => {
+                    SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction)
+                }
+                None => SurfaceQuery::escaped(ray.origin, ray.direction),
+            })
+            .collect();
+        let mut output = self.tracer.look_up(field, &queries, &options)?;
+        for (result, hit) in output.results.iter_mut().zip(&hits) {
+            if let Some(hit) = hit {
+                result.t = hit.t;
+            }
+        }
+        output.timing = probe_trace_gpu::Timing {
+            wall: start.elapsed(),
+            gpu: None,
+        };
+        Ok(output)
+    }
+
     /// Uploads a bake's irradiance probes (irradiance and distance moments) for diffuse
     /// shading, blended by `interpolation`.
     ///
@@ -614,8 +670,10 @@ pub struct TracedView {
 ///
 /// # Errors
 /// [`EvalError`] from upload or trace.
+#[allow(clippy::too_many_arguments)]
 pub fn trace_only(
     device: &mut Device,
+    scene: &Scene,
     baked: &ProbeBake,
     index: &BuiltIndex,
     view: &EvalView,
@@ -627,11 +685,11 @@ pub fn trace_only(
         return Ok(None);
     };
     let field = device.upload(&light_field(baked), &probe_selection)?;
-    let options = tracer.options();
-    // Warm up: the first dispatch compiles the pipeline (lavapipe: ~0.1 s).
+    // Warm up: the first dispatch compiles the pipeline (lavapipe: seconds without Mesa's
+    // shader cache, ~0.1 s with it).
     let warm = rays.len().min(256);
-    device.trace(&field, &rays[..warm], &options)?;
-    let output = device.trace(&field, rays, &options)?;
+    device.trace_with(scene, &field, &rays[..warm], tracer)?;
+    let output = device.trace_with(scene, &field, rays, tracer)?;
     let image = view.image_of(&output.results)?;
     Ok(Some(TracedView {
         tracer,
@@ -706,8 +764,10 @@ pub fn compare_trace(
 ///
 /// # Errors
 /// [`EvalError`] from upload or trace.
+#[allow(clippy::too_many_arguments)]
 pub fn trace_view(
     device: &mut Device,
+    scene: &Scene,
     baked: &ProbeBake,
     index: &BuiltIndex,
     view: &EvalView,
@@ -715,7 +775,8 @@ pub fn trace_view(
     tracer: Tracer,
     selection: Selection,
 ) -> Result<Option<(TraceMetrics, Image)>, EvalError> {
-    let Some(traced) = trace_only(device, baked, index, view, rays, tracer, selection)? else {
+    let Some(traced) = trace_only(device, scene, baked, index, view, rays, tracer, selection)?
+    else {
         return Ok(None);
     };
     let (metrics, _) = compare_trace(Footprints::of(baked), view, &traced, None)?;

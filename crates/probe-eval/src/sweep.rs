@@ -242,8 +242,9 @@ impl EvalConfig {
             .map(|t| match t.as_str() {
                 "two-level" => Ok(Tracer::TwoLevel),
                 "hiz" => Ok(Tracer::HiZ),
+                "hybrid" => Ok(Tracer::Hybrid),
                 other => Err(self.invalid(format!(
-                    "unknown tracer {other:?} (expected two-level or hiz)"
+                    "unknown tracer {other:?} (expected two-level, hiz or hybrid)"
                 ))),
             })
             .collect()
@@ -1063,6 +1064,7 @@ pub fn run_sweep(
                     for &tracer in &tracers {
                         let Some(traced) = trace_only(
                             &mut device,
+                            &scene,
                             &baked,
                             &index,
                             view,

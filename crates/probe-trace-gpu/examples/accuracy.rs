@@ -1,65 +1,123 @@
-//! Accuracy of the tracer against exact BVH hits of the same rays (BRIEF, "How quality is
-//! measured"): mirror reflection rays from a camera's first hits, traced through grid probes
-//! baked by the test support's mini capture (one BVH ray per texel centre; radiance = base
-//! colour + emission), compared with the BVH's closest hits.
+//! Accuracy and speed of the tracers against exact BVH hits of the same rays (BRIEF, "How
+//! quality is measured"): mirror reflection rays from a camera's first hits, traced through
+//! probes baked by the test support's mini capture (one BVH ray per texel centre, plus 3×3
+//! rays across each texel for its distance range; radiance = base colour + emission),
+//! compared with the BVH's closest hits. The CPU twin is used (the GPU gives the same answers;
+//! see the `gpu_trace` tests), and every time is on the same threads as the BVH's.
 //!
-//! Prints Markdown table rows. The CPU twin is used (the GPU gives the same answers; see the
-//! `gpu_trace` tests).
+//! Prints Markdown table rows: per probe set and selection, the light-field tracer with its
+//! defaults, without the nearest-probe extension (the selection's own candidates, 8 probes
+//! per ray), without the distance ranges, and the hybrid (BVH hits, radiance looked up in the
+//! probes), then where the light-field tracer's failures lie.
 //!
 //! ```text
-//! cargo run --release -p probe-trace-gpu --example accuracy -- [cornell|sponza|all]
+//! cargo run --release -p probe-trace-gpu --example accuracy -- [cornell|sponza|sponza-region|breakfast|godot|all] [PROBES.json]
 //! ```
+//!
+//! With a `probes/1` file (`probes place --out`), that probe set is traced instead of the
+//! scene's grids (Voronoi and octree selection).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use probe_index::{
     NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
 };
-use probe_scene::{Ray, Scene};
+use probe_scene::{Camera, Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, ProbeSelection, TraceMethod, TraceOptions, TraceSummary, Tracer,
+    CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, SurfaceQuery, TraceMethod,
+    TraceOptions, TraceSummary, Tracer,
 };
-use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
+use support::{
+    Bake, accuracy, albedo_shade, footprint, mini_capture, reflection_rays, to_trace_rays,
+};
 
 fn header() {
     println!(
-        "| scene | probes | res | selector | options | rays | true hits seen by a probe | of those, within 1 footprint | within 2 | wrong answers | unknown | radiance MSE | fetches/ray hi-Z | fetches/ray two-level | probes/ray |"
+        "| scene | probes | res | selector | variant | rays | true hits seen by a probe | of those, within 1 footprint | within 2 | wrong answers (early / late / other) | unknown | radiance MSE | fetches/ray hi-Z | fetches/ray two-level | probes/ray | CPU ms hi-Z | two-level | BVH | hi-Z / BVH |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+}
+
+/// Wrong answers split by where the answer lies against the truth: a hit before the true one
+/// (invented), after it (the true surface passed), or another mismatch (a miss for a hit, a
+/// hit for an escape).
+fn wrong_split(
+    scene: &Scene,
+    bake: &Bake,
+    rays: &[Ray],
+    results: &[RayResult],
+) -> (usize, usize, usize) {
+    let (mut early, mut late, mut other) = (0, 0, 0);
+    for (ray, r) in rays.iter().zip(results) {
+        if r.status == RayStatus::Unknown {
+            continue;
+        }
+        let truth = scene.closest_hit(ray, f32::INFINITY);
+        match (&truth, r.status, r.probe) {
+            (Some(h), RayStatus::Hit, Some(p)) => {
+                let f = footprint(
+                    bake.resolution,
+                    bake.positions[p as usize],
+                    h.position,
+                    h.geometric_normal,
+                );
+                if (r.position - h.position).length() > 2.0 * f {
+                    if r.t < h.t {
+                        early += 1;
+                    } else {
+                        late += 1;
+                    }
+                }
+            }
+            (Some(_), RayStatus::Miss, _) | (None, RayStatus::Hit, _) => other += 1,
+            _ => {}
+        }
+    }
+    (early, late, other)
 }
 
 #[allow(clippy::too_many_arguments)]
-fn row(
+fn rows(
     scene: &Scene,
-    scene_label: &str,
-    grid: ProbeGrid,
+    label: &str,
+    positions: &[Vec3],
+    grid: Option<ProbeGrid>,
     resolution: u32,
     sky: f32,
     rays: &[Ray],
     selectors: &[&str],
-    field_options: FieldOptions,
 ) {
     let shade = albedo_shade(scene);
-    let positions = grid.positions();
     let t = Instant::now();
-    let bake = mini_capture(scene, &positions, resolution, sky, &shade);
+    let bake = mini_capture(scene, positions, resolution, sky, &shade);
     let bake_time = t.elapsed();
     let trace_rays = to_trace_rays(rays);
+    // The baseline a user weighs the probes against: the exact trace of the same rays.
+    let t = Instant::now();
+    let hits = scene.closest_hits(rays, f32::INFINITY);
+    let bvh = t.elapsed();
+    let queries: Vec<SurfaceQuery> = rays
+        .iter()
+        .zip(&hits)
+        .map(|(ray, hit)| match hit {
+            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
+            None => SurfaceQuery::escaped(ray.origin, ray.direction),
+        })
+        .collect();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let pct = |x: usize, of: usize| 100.0 * x as f64 / of.max(1) as f64;
     for &name in selectors {
-        let tets;
-        let neighbours;
-        let nearest;
-        let svo;
+        let (tets, neighbours, nearest, svo);
         let selection = match name {
-            "grid" => ProbeSelection::Grid(grid),
+            "grid" => ProbeSelection::Grid(grid.expect("a grid")),
             "svo" => {
                 svo = SparseVoxelOctree::build(
                     scene,
-                    &positions,
+                    positions,
                     &SvoOptions {
                         max_depth: 7,
                         ..SvoOptions::default()
@@ -69,9 +127,9 @@ fn row(
                 ProbeSelection::SparseVoxelOctree(&svo)
             }
             _ => {
-                tets = Tetrahedralization::build(&positions).unwrap();
+                tets = Tetrahedralization::build(positions).unwrap();
                 neighbours = VoronoiNeighbours::bake(&tets, 16).unwrap();
-                nearest = NearestProbe::new(&positions);
+                nearest = NearestProbe::new(positions);
                 ProbeSelection::Voronoi {
                     nearest: &nearest,
                     neighbours: &neighbours,
@@ -79,142 +137,264 @@ fn row(
             }
         };
         let mut tracer = CpuTracer::new();
+        let t = Instant::now();
         let field = tracer
-            .upload(&bake.field(), &selection, &field_options)
+            .upload(&bake.field(), &selection, &FieldOptions::default())
             .unwrap();
-        let hiz = tracer
-            .trace(&field, &trace_rays, &TraceOptions::default())
+        let upload = t.elapsed();
+        let mut without_ranges = bake.field();
+        without_ranges.distance_range = None;
+        let field_without_ranges = tracer
+            .upload(&without_ranges, &selection, &FieldOptions::default())
             .unwrap();
-        let two = tracer
-            .trace(
-                &field,
-                &trace_rays,
-                &TraceOptions {
-                    method: TraceMethod::TwoLevel,
-                    ..TraceOptions::default()
-                },
-            )
-            .unwrap();
-        let a = accuracy(scene, &bake, rays, &hiz.results, &shade);
-        let s_hiz = TraceSummary::of(&hiz.results);
-        let s_two = TraceSummary::of(&two.results);
-        let pct = |x: usize, of: usize| 100.0 * x as f64 / of.max(1) as f64;
-        let options = if field_options.conservative_edges {
-            "conservative_edges"
-        } else {
-            "default"
+        let own_only = TraceOptions {
+            nearest_candidates: 0,
+            max_probes: 8,
+            ..TraceOptions::default()
         };
+        for (variant, field, options) in [
+            ("default", &field, TraceOptions::default()),
+            ("selection's own, 8 probes", &field, own_only),
+            (
+                "no distance ranges",
+                &field_without_ranges,
+                TraceOptions::default(),
+            ),
+        ] {
+            let hiz = tracer.trace(field, &trace_rays, &options).unwrap();
+            let two = tracer
+                .trace(
+                    field,
+                    &trace_rays,
+                    &TraceOptions {
+                        method: TraceMethod::TwoLevel,
+                        ..options
+                    },
+                )
+                .unwrap();
+            let a = accuracy(scene, &bake, rays, &hiz.results, &shade);
+            let (early, late, other) = wrong_split(scene, &bake, rays, &hiz.results);
+            let s_hiz = TraceSummary::of(&hiz.results);
+            let s_two = TraceSummary::of(&two.results);
+            println!(
+                "| {label} | {} | {resolution}² | {name} | {variant} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % ({:.2} / {:.2} / {:.2}) | {:.2} % | {:.4} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.2} |",
+                positions.len(),
+                a.rays,
+                pct(a.seen, a.true_hits),
+                100.0 * a.seen_rate(),
+                pct(a.seen_correct_2, a.seen),
+                pct(a.wrong_answers, a.rays),
+                pct(early, a.rays),
+                pct(late, a.rays),
+                pct(other, a.rays),
+                pct(a.unknown, a.rays),
+                a.radiance_mse,
+                s_hiz.fetches_per_ray,
+                s_two.fetches_per_ray,
+                s_hiz.probes_per_ray,
+                ms(hiz.timing.wall),
+                ms(two.timing.wall),
+                ms(bvh),
+                hiz.timing.wall.as_secs_f64() / bvh.as_secs_f64(),
+            );
+        }
+        // The hybrid: exact hits, radiance from the probes that see them.
+        let t = Instant::now();
+        let hits_again = scene.closest_hits(rays, f32::INFINITY);
+        let looked = tracer
+            .look_up(&field, &queries, &TraceOptions::default())
+            .unwrap();
+        let hybrid = t.elapsed();
+        assert_eq!(hits_again.len(), hits.len());
+        let a = accuracy(scene, &bake, rays, &looked.results, &shade);
+        let s = TraceSummary::of(&looked.results);
         println!(
-            "| {scene_label} | {} | {resolution}² | {name} | {options} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % | {:.1} % | {:.4} | {:.1} | {:.1} | {:.2} |",
+            "| {label} | {} | {resolution}² | {name} | hybrid (BVH + look-up) | {} | {:.1} % | {:.1} % (radiance from a probe that sees the hit) | | 0 | {:.2} % | {:.4} | {:.1} (look-up) | | {:.2} | {:.1} (BVH {:.1} + look-up {:.1}) | | {:.1} | {:.2} |",
             positions.len(),
             a.rays,
             pct(a.seen, a.true_hits),
-            100.0 * a.seen_rate(),
-            pct(a.seen_correct_2, a.seen),
-            pct(a.wrong_answers, a.rays),
+            pct(s.hits, a.true_hits),
             pct(a.unknown, a.rays),
             a.radiance_mse,
-            s_hiz.fetches_per_ray,
-            s_two.fetches_per_ray,
-            s_hiz.probes_per_ray,
+            s.fetches_per_ray,
+            s.probes_per_ray,
+            ms(hybrid),
+            ms(hybrid) - ms(looked.timing.wall),
+            ms(looked.timing.wall),
+            ms(bvh),
+            hybrid.as_secs_f64() / bvh.as_secs_f64(),
         );
-        eprintln!(
-            "  ({scene_label}, {name}: bake {bake_time:?}, hi-Z {:?}, two-level {:?} on the CPU; escapes {} of which answered miss {})",
-            hiz.timing.wall, two.timing.wall, a.escapes, a.escapes_correct
-        );
+        eprintln!("  ({label}, {name}: mini bake {bake_time:?}, upload {upload:?} on the CPU)");
     }
 }
 
-fn cornell() {
+/// Mirror reflections of the first hits of a `w×h` image from `camera`.
+fn rays_from(scene: &Scene, camera: &Camera, w: u32, h: u32) -> Vec<Ray> {
+    let mut primary = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            primary.push(camera.ray(x, y, w, h, Vec2::ZERO));
+        }
+    }
+    reflection_rays(scene, &primary)
+}
+
+/// A grid of `counts` probes at the centres of the cells of `[lo, hi]` divided `counts` ways.
+fn cell_centred(lo: Vec3, hi: Vec3, counts: [u32; 3]) -> ProbeGrid {
+    let cells = Vec3::new(counts[0] as f32, counts[1] as f32, counts[2] as f32);
+    let spacing = (hi - lo) / cells;
+    ProbeGrid::new(lo + spacing * 0.5, spacing, counts).unwrap()
+}
+
+fn probe_file(path: Option<&String>) -> Option<Vec<Vec3>> {
+    path.map(|p| {
+        probe_place::ProbeSet::load(p)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .positions
+    })
+}
+
+fn cornell(file: Option<&String>) {
     let scene = Scene::open("builtin:cornell").unwrap();
-    let rays = reflection_rays(&scene, &camera_rays(&scene, 128, 96));
-    for k in [3u32, 4, 5] {
+    let rays = rays_from(&scene, &scene.default_camera(), 128, 96);
+    if let Some(positions) = probe_file(file) {
+        rows(
+            &scene,
+            "cornell",
+            &positions,
+            None,
+            256,
+            50.0,
+            &rays,
+            &["svo", "voronoi"],
+        );
+        return;
+    }
+    for (k, resolutions) in [(3u32, &[128u32, 256][..]), (4, &[256][..])] {
         let grid = ProbeGrid::new(
             Vec3::splat(0.06),
             Vec3::new(0.43, 0.43, 0.44) / (k - 1) as f32,
             [k, k, k],
         )
         .unwrap();
-        for resolution in [64, 128, 256] {
-            let selectors: &[&str] = if k == 4 && resolution == 128 {
-                &["grid", "svo", "voronoi"]
-            } else {
-                &["grid"]
-            };
-            row(
+        for &resolution in resolutions {
+            rows(
                 &scene,
                 "cornell",
-                grid,
+                &grid.positions(),
+                Some(grid),
                 resolution,
                 50.0,
                 &rays,
-                selectors,
-                FieldOptions::default(),
+                &["grid"],
             );
         }
     }
-    let grid = ProbeGrid::new(
-        Vec3::splat(0.06),
-        Vec3::splat(0.215).with_z(0.22),
-        [3, 3, 3],
-    )
-    .unwrap();
-    row(
-        &scene,
-        "cornell",
-        grid,
-        64,
-        50.0,
-        &rays,
-        &["grid"],
-        FieldOptions {
-            conservative_edges: true,
-            ..FieldOptions::default()
-        },
-    );
 }
 
-fn sponza() {
+fn sponza(region_only: bool, file: Option<&String>) {
     let t = Instant::now();
     let scene = Scene::load(probe_testdata::scene_path(probe_testdata::SPONZA)).unwrap();
     eprintln!("  (Sponza loaded in {:?})", t.elapsed());
     let camera = scene.camera("CameraMain").unwrap().clone();
-    let mut primary = Vec::new();
-    let (w, h) = (160, 90);
-    for y in 0..h {
-        for x in 0..w {
-            primary.push(camera.ray(x, y, w, h, glam::Vec2::ZERO));
-        }
-    }
-    let rays = reflection_rays(&scene, &primary);
-    // 64 probes (seed 000's Sponza count), 8 × 2 × 4 over the atrium and galleries.
-    let grid = ProbeGrid::new(
-        Vec3::new(-21.0, 6.0, -6.0),
-        Vec3::new(6.0, 8.0, 4.0),
-        [8, 2, 4],
-    )
-    .unwrap();
-    for resolution in [128, 256] {
-        row(
+    let rays = rays_from(&scene, &camera, 160, 90);
+    if let Some(positions) = probe_file(file) {
+        rows(
             &scene,
             "sponza",
-            grid,
-            resolution,
+            &positions,
+            None,
+            256,
             1000.0,
             &rays,
-            &["grid", "svo", "voronoi"],
-            FieldOptions::default(),
+            &["svo", "voronoi"],
+        );
+        return;
+    }
+    if !region_only {
+        // 64 probes (seed 000's Sponza count), 8 × 2 × 4 over the atrium and galleries: the
+        // grid of the earlier measurements.
+        let grid = ProbeGrid::new(
+            Vec3::new(-21.0, 6.0, -6.0),
+            Vec3::new(6.0, 8.0, 4.0),
+            [8, 2, 4],
+        )
+        .unwrap();
+        rows(
+            &scene,
+            "sponza",
+            &grid.positions(),
+            Some(grid),
+            256,
+            1000.0,
+            &rays,
+            &["grid"],
         );
     }
+    // 64 probes at the cell centres of the atrium region of eval.toml (the atrium and both
+    // gallery floors): -20,4,-9 to 17.3,15,7.6.
+    let grid = cell_centred(
+        Vec3::new(-20.0, 4.0, -9.0),
+        Vec3::new(17.3, 15.0, 7.6),
+        [8, 2, 4],
+    );
+    rows(
+        &scene,
+        "sponza, region grid",
+        &grid.positions(),
+        Some(grid),
+        256,
+        1000.0,
+        &rays,
+        &["grid", "voronoi"],
+    );
+}
+
+fn interior(label: &str, path: &str, camera: Option<&str>, counts: [u32; 3]) {
+    let scene = Scene::load(probe_testdata::scene_path(path)).unwrap();
+    let camera = match camera {
+        Some(name) => scene.camera(name).unwrap().clone(),
+        None => scene.default_camera(),
+    };
+    let rays = rays_from(&scene, &camera, 160, 90);
+    let bounds = scene.bounds();
+    let grid = cell_centred(bounds.min, bounds.max, counts);
+    let sky = 100.0 * bounds.size().length();
+    rows(
+        &scene,
+        label,
+        &grid.positions(),
+        Some(grid),
+        256,
+        sky,
+        &rays,
+        &["grid", "voronoi"],
+    );
 }
 
 fn main() {
-    let which = std::env::args().nth(1).unwrap_or_else(|| "all".to_owned());
+    let args: Vec<String> = std::env::args().collect();
+    let which = args.get(1).map_or("all", |s| s.as_str());
+    let file = args.get(2);
     header();
     if which == "cornell" || which == "all" {
-        cornell();
+        cornell(file);
     }
     if which == "sponza" || which == "all" {
-        sponza();
+        sponza(false, file);
+    }
+    if which == "sponza-region" {
+        sponza(true, file);
+    }
+    if which == "breakfast" || which == "all" {
+        interior(
+            "breakfast room",
+            probe_testdata::BREAKFAST_ROOM,
+            None,
+            [4, 2, 4],
+        );
+    }
+    if which == "godot" || which == "all" {
+        interior("godot room", probe_testdata::GODOT_ROOM, None, [4, 2, 4]);
     }
 }

@@ -479,29 +479,65 @@ impl PackedField {
                 probe_octa::decode(q)
             })
             .collect();
-        let mut texel_bounds = TexelBounds::new(n);
-        for probe in 0..probes {
-            let range = probe * per_probe..(probe + 1) * per_probe;
-            texel_bounds.compute(
-                &layout,
-                &centers,
-                &field.radial_distance[range.clone()],
-                &field.normals[range.clone()],
-                field.distance_range.map(|r| &r[range.clone()]),
-                sky,
-                thickness,
-                options.conservative_edges,
-            );
-            for (i, out) in geometry[range].iter_mut().enumerate() {
-                *out = texel_bounds.packed[i];
+        // Probes are independent: the threads take them one at a time and send their
+        // records back to this thread, which writes them in place.
+        let threads = std::thread::available_parallelism()
+            .map_or(1, |t| t.get())
+            .min(probes);
+        let next_probe = std::sync::atomic::AtomicUsize::new(0);
+        type ProbeRecords = (usize, Vec<[u32; 4]>, Vec<Vec<[u32; 4]>>);
+        let (sender, receiver) = std::sync::mpsc::channel::<ProbeRecords>();
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                let sender = sender.clone();
+                let (next_probe, layout, centers, corner_dirs) =
+                    (&next_probe, &layout, &centers, &corner_dirs);
+                scope.spawn(move || {
+                    let mut texel_bounds = TexelBounds::new(n);
+                    loop {
+                        let probe = next_probe.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if probe >= probes {
+                            break;
+                        }
+                        let range = probe * per_probe..(probe + 1) * per_probe;
+                        texel_bounds.compute(
+                            layout,
+                            centers,
+                            &field.radial_distance[range.clone()],
+                            &field.normals[range.clone()],
+                            field.distance_range.map(|r| &r[range.clone()]),
+                            sky,
+                            thickness,
+                            options.conservative_edges,
+                        );
+                        let regions = texel_bounds.regions(layout, centers, sky, thickness);
+                        let mut levels = vec![Vec::new(); level_count as usize];
+                        crate::pyramid::build(
+                            n,
+                            level_count,
+                            &regions,
+                            corner_dirs,
+                            |level, records| levels[level as usize] = records.to_vec(),
+                        );
+                        if sender
+                            .send((probe, texel_bounds.packed.clone(), levels))
+                            .is_err()
+                        {
+                            break;
+                        }
+                    }
+                });
             }
-            let regions = texel_bounds.regions(&layout, &centers, sky, thickness);
-            crate::pyramid::build(n, level_count, &regions, &corner_dirs, |level, records| {
-                let side = (n >> level) as usize;
-                let start = level_offsets[level as usize] as usize + probe * side * side;
-                pyramid[start..start + side * side].copy_from_slice(records);
-            });
-        }
+            drop(sender);
+            for (probe, packed, levels) in receiver {
+                geometry[probe * per_probe..(probe + 1) * per_probe].copy_from_slice(&packed);
+                for (level, records) in levels.iter().enumerate().skip(1) {
+                    let side = (n >> level) as usize;
+                    let start = level_offsets[level] as usize + probe * side * side;
+                    pyramid[start..start + side * side].copy_from_slice(records);
+                }
+            }
+        });
         Ok(Self {
             resolution: n,
             probe_count: probes as u32,

@@ -23,6 +23,8 @@ pub enum TracerArg {
     Hiz,
     /// McGuire 2017's coarse DDA plus fine march.
     TwoLevel,
+    /// Geometry from the scene's BVH, radiance from the probes that see each hit.
+    Hybrid,
 }
 
 /// Selections on the command line.
@@ -206,16 +208,21 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         let tracer = match args.tracer {
             TracerArg::Hiz => Tracer::HiZ,
             TracerArg::TwoLevel => Tracer::TwoLevel,
+            TracerArg::Hybrid => Tracer::Hybrid,
         };
         let field = device.upload(&light_field(&baked), &probe_selection)?;
         let trace_rays: Vec<TraceRay> = rays
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
             .collect();
-        let options = tracer.options();
         // The first dispatch compiles the pipeline; time the second.
-        device.trace(&field, &trace_rays[..trace_rays.len().min(256)], &options)?;
-        let output = device.trace(&field, &trace_rays, &options)?;
+        device.trace_with(
+            &scene,
+            &field,
+            &trace_rays[..trace_rays.len().min(256)],
+            tracer,
+        )?;
+        let output = device.trace_with(&scene, &field, &trace_rays, tracer)?;
         let summary = TraceSummary::of(&output.results);
         let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
         let map = json.as_object_mut().expect("an object");

@@ -227,26 +227,35 @@ impl Tracer for CpuTracer {
     }
 }
 
-/// Maps `f` over `items` on all available threads, keeping order.
+/// Items per block of [`parallel_map`]: small enough that the threads finish together (rays
+/// differ in cost by orders of magnitude), large enough that taking a block costs nothing.
+const BLOCK: usize = 256;
+
+/// Maps `f` over `items` on all available threads, keeping order. Threads take blocks of
+/// [`BLOCK`] items from a shared queue as they finish the last, so a thread that drew cheap
+/// rays does not wait idle for one that drew expensive ones.
 fn parallel_map<T: Sync, U: Send + Default + Clone>(
     items: &[T],
     f: impl Fn(&T) -> U + Sync,
 ) -> Vec<U> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut out = vec![U::default(); items.len()];
-    if threads <= 1 || items.len() < 256 {
+    if threads <= 1 || items.len() < 2 * BLOCK {
         for (o, item) in out.iter_mut().zip(items) {
             *o = f(item);
         }
         return out;
     }
-    let chunk = items.len().div_ceil(threads);
+    let blocks = std::sync::Mutex::new(out.chunks_mut(BLOCK).zip(items.chunks(BLOCK)));
     std::thread::scope(|scope| {
-        for (outs, ins) in out.chunks_mut(chunk).zip(items.chunks(chunk)) {
-            let f = &f;
+        for _ in 0..threads {
+            let (f, blocks) = (&f, &blocks);
             scope.spawn(move || {
-                for (o, item) in outs.iter_mut().zip(ins) {
-                    *o = f(item);
+                // A poisoned lock means another worker panicked; the scope re-raises it.
+                while let Some((outs, ins)) = blocks.lock().ok().and_then(|mut b| b.next()) {
+                    for (o, item) in outs.iter_mut().zip(ins) {
+                        *o = f(item);
+                    }
                 }
             });
         }
