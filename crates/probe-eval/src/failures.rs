@@ -1775,9 +1775,12 @@ fn unseen_rays(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseError> 
         // they offer is behind the wall. The tracer must then answer UNKNOWN; where a lit-room
         // probe's texel holds the crease of the floor and the wall's base, its single plane
         // (the floor, extended past the wall by the texel's footprint at 32²) still places
-        // some rays, wrongly. SVO selection lists only probes that see a cell: none here.
+        // some rays, wrongly. SVO selection lists only probes that see a cell (none here), but
+        // when a selection's own candidates fail the tracer tries the probes nearest the point,
+        // all behind the wall here: their stricter test (the point in front of the texel's
+        // plane) rejects most, the crease a few (3 % measured).
         let (wrong_bound, unknown_bound) = if selection == "svo" {
-            (0.02, 0.9)
+            (0.05, 0.6)
         } else {
             (0.25, 0.6)
         };

@@ -361,19 +361,34 @@ fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     UVec2::new(x, y)
 }
 
-/// Whether `probe`'s depth map can show the point `p`: `p` lies no farther than the far bound
-/// of the texel holding its direction (one fetch). A probe that cannot would answer UNKNOWN
-/// at once, without progress.
-fn sees_point(field: &PackedField, probe: u32, p: Vec3, fetches: &mut u32) -> bool {
+/// Whether `probe`'s depth map can show the point `p` (one fetch): the texel holding its
+/// direction sees the sky, or a surface that `p` lies no farther than (its `far` bound) and
+/// not behind by more than the plane's thickness along its normal (`strict`: not behind it at
+/// all). A probe that cannot would answer UNKNOWN at once, without progress (or, from just
+/// behind a thin wall, pass the ray through it). The selection's own candidates get the
+/// thickness; the nearest-probe extension, which knows nothing of visibility, is strict.
+fn sees_point(field: &PackedField, probe: u32, p: Vec3, strict: bool, fetches: &mut u32) -> bool {
     let v = p - field.position(probe);
     let r = v.length();
     if r == 0.0 {
         return true;
     }
     *fetches += 1;
-    let cell = direction_cell(field.resolution, v / r);
-    let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
-    r <= f32::from_bits(texel[3] & !crate::packed::SIGN_BIT)
+    let n = field.resolution;
+    let cell = direction_cell(n, v / r);
+    let texel = field.geometry[padded_index(n, probe, cell.x, cell.y)];
+    let distance = f32::from_bits(texel[0] & !crate::packed::SIGN_BIT);
+    if distance >= field.sky_distance {
+        return true;
+    }
+    if r > f32::from_bits(texel[3] & !crate::packed::SIGN_BIT) {
+        return false;
+    }
+    let center = probe_octa::decode(crate::surface::texel_center(n, cell.x, cell.y));
+    let normal = crate::surface::unpack_normal(texel[1]);
+    let surface = crate::surface::texel_surface(n, center, distance, normal, field.thickness_scale);
+    let slack = if strict { 0.0 } else { surface.plane_thickness };
+    (v - center * distance).dot(surface.visible_normal) >= -slack
 }
 
 /// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order, then the
@@ -436,7 +451,7 @@ pub(crate) fn trace_ray<O: RayObserver>(
             // point (else the first probe tried).
             for i in 0..list.len + extension {
                 let q = selector.candidate(&list, anchor, failed, i);
-                if q != NO_PROBE && sees_point(field, q, here, &mut fetches) {
+                if q != NO_PROBE && sees_point(field, q, here, i >= list.len, &mut fetches) {
                     probe = q;
                     break;
                 }
@@ -452,7 +467,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
             }
         } else {
             probe = selector.candidate(&list, anchor, failed, next);
-            if probe == NO_PROBE || !sees_point(field, probe, here, &mut fetches) {
+            let strict = next >= list.len;
+            if probe == NO_PROBE || !sees_point(field, probe, here, strict, &mut fetches) {
                 next += 1;
                 continue;
             }

@@ -863,22 +863,32 @@ fn radiance_at(probe: u32, cell: vec2<u32>) -> vec3<f32> {
 }
 
 // Whether `probe`'s depth map can show point p (src/cpu/mod.rs sees_point): one fetch.
-fn sees_point(probe: u32, p: vec3<f32>) -> bool {
+fn sees_point(probe: u32, p: vec3<f32>, strict: bool) -> bool {
     let v = p - positions[probe].xyz;
     let r = length(v);
     if (r == 0.0) {
         return true;
     }
     fetches += 1u;
-    let cell = texel_containing(params.resolution, v / r);
-    let texel = geometry[padded_index(params.resolution, probe, cell)];
-    return r <= bitcast<f32>(texel.w & ~SIGN_BIT);
+    let n = params.resolution;
+    let cell = texel_containing(n, v / r);
+    let texel = geometry[padded_index(n, probe, cell)];
+    let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
+    if (distance >= params.sky_distance) {
+        return true;
+    }
+    if (r > bitcast<f32>(texel.w & ~SIGN_BIT)) {
+        return false;
+    }
+    let center = octa_decode(texel_center(n, cell));
+    let surface = texel_surface(n, center, distance, unpack_normal(texel.y), params.thickness_scale);
+    var slack = surface.plane_thickness;
+    if (strict) {
+        slack = 0.0;
+    }
+    return dot(v - center * distance, surface.visible_normal) >= -slack;
 }
 
-// One ray (src/cpu/mod.rs trace_ray): candidates in the selection's order, then the nearest
-// probes, skipping those that cannot see the point the ray restarts from; when none is left
-// (or the cap is reached), one more march, relaxed, by the estimating probe. trace_probe and
-// select_probes each have one call site, so the march is compiled once.
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
@@ -928,7 +938,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         if (estimating) {
             for (var i = 0u; i < list.len + extension; i++) {
                 let q = candidate(list, anchor, failed, i);
-                if (q != NO_PROBE && sees_point(q, here)) {
+                if (q != NO_PROBE && sees_point(q, here, i >= list.len)) {
                     probe = q;
                     break;
                 }
@@ -944,7 +954,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             }
         } else {
             probe = candidate(list, anchor, failed, next);
-            if (probe == NO_PROBE || !sees_point(probe, here)) {
+            if (probe == NO_PROBE || !sees_point(probe, here, next >= list.len)) {
                 next += 1u;
                 continue;
             }
