@@ -269,12 +269,21 @@ impl Image {
         exposure: f32,
     ) -> Result<(), ImageError> {
         self.check()?;
-        let bytes: Vec<u8> = self
-            .rgb
+        write_png_rgb8(
+            path.as_ref(),
+            &self.to_rgb8(exposure),
+            self.width,
+            self.height,
+        )
+    }
+
+    /// The pixels as [`Image::save_png_with_exposure`] encodes them: times `exposure`, ACES
+    /// filmic, sRGB, 8-bit RGB row by row (for composing pictures of several images).
+    pub fn to_rgb8(&self, exposure: f32) -> Vec<u8> {
+        self.rgb
             .iter()
             .flat_map(|p| p.map(|v| srgb8(aces(v * exposure))))
-            .collect();
-        write_png_rgb8(path.as_ref(), &bytes, self.width, self.height)
+            .collect()
     }
 }
 

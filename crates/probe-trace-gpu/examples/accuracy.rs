@@ -6,9 +6,10 @@
 //! see the `gpu_trace` tests), and every time is on the same threads as the BVH's.
 //!
 //! Prints Markdown table rows: per probe set and selection, the light-field tracer with its
-//! defaults, without the nearest-probe extension (the selection's own candidates, 8 probes
-//! per ray), without the distance ranges, and the hybrid (BVH hits, radiance looked up in the
-//! probes), then where the light-field tracer's failures lie.
+//! defaults, with 8 and 32 probes per ray, without the nearest-probe extension (the
+//! selection's own candidates, 8 probes per ray: the tracer before it), without the distance
+//! ranges, and the hybrid (BVH hits, radiance looked up in the probes). Wrong answers are
+//! split into hits before the true one, hits behind it (the true surface passed) and others.
 //!
 //! ```text
 //! cargo run --release -p probe-trace-gpu --example accuracy -- [cornell|sponza|sponza-region|breakfast|godot|all] [PROBES.json]

@@ -17,8 +17,9 @@
 //!   engine's own `wgpu::Device`) and [`CpuTracer`] (its twin) `upload` probes and return the
 //!   uploaded field as a value you hold ([`GpuField`] / [`CpuField`]), then `trace` ray sets
 //!   through it ([`TraceRay`] → [`RayResult`]) with [`TraceOptions`] (hi-Z or two-level,
-//!   probe cap, back-face rejection); `upload_irradiance` / `shade_diffuse` likewise. Tracing
-//!   before uploading does not compile. [`AnyTracer`] boxes either, chosen at run time.
+//!   probe cap, back-face rejection); [`Tracer::look_up`] answers surface points found by an
+//!   exact ray cast (the hybrid tracer); `upload_irradiance` / `shade_diffuse` likewise.
+//!   Tracing before uploading does not compile. [`AnyTracer`] boxes either, chosen at run time.
 //! - For engines: [`GpuTracer::record_trace`] records a trace from rays already in a GPU
 //!   buffer into a results buffer, into the caller's `wgpu::CommandEncoder` ([`TraceBuffers`],
 //!   [`RayRecord`]); [`TRACE_WGSL`], [`trace_bind_group_layout_entries`] and
@@ -135,11 +136,33 @@
 //! answers UNKNOWN without progress, the next candidate tries from the same point. Grids give
 //! the 8-cage in seed 003 Alg. 6 order (first the probe behind the point along the ray, then
 //! `(i + 3) mod 8`), the octree the best 4 probes of the leaf holding the point, Voronoi the
-//! nearest probe and then the failed probe's neighbours towards the point. At most
-//! [`TraceOptions::max_probes`] probes are tried; if all fail, the ray is UNKNOWN and gets the
-//! radiance in its direction of the best probe for the furthest point the ray is known to
-//! have reached (the environment-map fallback of seed 003 §5.4, from a probe near where the
-//! ray was heading rather than near its origin).
+//! nearest probe and then the failed probe's neighbours towards the point. When those have all
+//! failed at a point, the probes nearest to it follow (the nearest probe's row of a table of
+//! each probe's 16 nearest, [`TraceOptions::nearest_candidates`]): a selection offers probes by
+//! where they are, and at a failure point the probes that can see past it are often just
+//! beyond the cage. A candidate is tried only if its depth map can show the point the ray
+//! restarts from (one fetch: the point in front of its texel's plane, within the plane's
+//! thickness for the selection's own candidates, strictly for the nearest ones); others are
+//! skipped without counting. At most [`TraceOptions::max_probes`] probes are tried (16 by
+//! default, chosen by measurement). If all fail, the ray is UNKNOWN with an **estimate**: the
+//! first candidate for the last decided point that sees it marches the rest of the ray with
+//! relaxed rules, taking the first place where the ray goes behind or crosses what it saw (at
+//! edges and back faces too) as the hit, and its radiance there (seed 003 §5.4's environment
+//! map fallback, made local: the probe's texel in the ray's direction only if it sees the ray
+//! leave).
+//!
+//! **Distance ranges.** A bake may give, per texel, the nearest and farthest distance its rays
+//! across the texel found ([`LightField::distance_range`]). A texel whose cone holds geometry
+//! nearer than its centre's plane allows (a chain, a leaf, an edge inside the texel) is then a
+//! nearer edge: a ray meeting it there is handed on, not passed in front of geometry the
+//! centre ray missed. One holding farther geometry cannot place a hit.
+//!
+//! **The hybrid** ([`Tracer::look_up`]). A renderer that can cast rays against its geometry
+//! exactly (a BVH, hardware ray queries) needs only the radiance at the hit: for each
+//! [`SurfaceQuery`], the selection's candidates for the point (then the nearest probes) are
+//! asked whether their texel towards the point shows it (the point within the texel's depth
+//! band, the probe on its lit side), and the best by view cosine over distance answers. No
+//! march: about 5 fetches a query.
 //!
 //! **Diffuse** (seed 001): trilinear grid or Delaunay barycentric weights times, optionally,
 //! the cubed Chebyshev weight of the probe's distance moments seen from the shading point
@@ -207,7 +230,8 @@
 //!   and normal maps (so the baker need not know the tracer's surface model), make hi-Z and
 //!   two-level exact twins and let hi-Z stop early on a hidden ray.
 //! - **Undecided is an answer.** Edge texels hand the ray on instead of guessing; a ray no probe
-//!   can finish is UNKNOWN with a fallback radiance, never a silent wrong hit.
+//!   can finish is UNKNOWN with an estimate (position, normal and radiance of the relaxed
+//!   march's guess), never a silent wrong hit: callers see which answers are guesses.
 
 mod cpu;
 mod error;

@@ -335,41 +335,50 @@ fn look_up_agrees_with_the_cpu_and_the_truth() {
         .unwrap();
     let c = cpu.look_up(&cpu_field, &queries, &options).unwrap().results;
     let g = gpu.look_up(&gpu_field, &queries, &options).unwrap().results;
-    // Everything equal but the unpacked normal, which the device's unpacking may round an
-    // ulp differently.
+    // Everything equal but the unpacked normal and the blended radiance, which the device
+    // may round an ulp differently.
     let same = |a: &RayResult, b: &RayResult| {
         a.normal.abs_diff_eq(b.normal, 1e-5)
+            && a.radiance
+                .abs_diff_eq(b.radiance, 1e-5 * (1.0 + a.radiance.length()))
             && RayResult {
                 normal: Vec3::ZERO,
+                radiance: Vec3::ZERO,
                 ..*a
             } == RayResult {
                 normal: Vec3::ZERO,
+                radiance: Vec3::ZERO,
                 ..*b
             }
     };
     if let Some(i) = (0..c.len()).find(|&i| !same(&c[i], &g[i])) {
         panic!("query {i}: CPU {:?}, GPU {:?}", c[i], g[i]);
     }
-    let (mut hits, mut right) = (0usize, 0usize);
+    let (mut hits, mut right, mut error) = (0usize, 0usize, 0.0f64);
     for (result, truth) in c.iter().zip(&truth) {
         match truth {
             Some(radiance) => {
                 if result.status == RayStatus::Hit {
                     hits += 1;
-                    right += usize::from((result.radiance - *radiance).abs().max_element() < 1e-4);
+                    let e = (result.radiance - *radiance).abs().max_element();
+                    right += usize::from(e < 1e-4);
+                    error += f64::from(e);
                 }
             }
             None => assert_eq!(result.status, RayStatus::Miss),
         }
     }
     let surfaces = truth.iter().filter(|t| t.is_some()).count();
-    eprintln!("look-up: {hits} of {surfaces} surface points seen, {right} with the true radiance");
+    let mean_error = error / hits.max(1) as f64;
+    eprintln!(
+        "look-up: {hits} of {surfaces} surface points seen, {right} with the true radiance, mean error {mean_error:.4}"
+    );
     assert!(
         hits as f64 >= 0.97 * surfaces as f64,
         "{hits} of {surfaces} seen"
     );
-    assert!(
-        right as f64 >= 0.98 * hits as f64,
-        "{right} of {hits} right"
-    );
+    // The others lie within a texel of another surface (the walls' creases), whose radiance
+    // the blend of the texels around the point mixes in.
+    assert!(right as f64 >= 0.9 * hits as f64, "{right} of {hits} right");
+    assert!(mean_error < 0.02, "mean radiance error {mean_error}");
 }

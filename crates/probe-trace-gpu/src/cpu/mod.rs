@@ -353,6 +353,86 @@ fn radiance(field: &PackedField, probe: u32, cell: UVec2) -> [f32; 3] {
     ]
 }
 
+/// Interior texel `(ix, iy)` of an `n×n` map, `ix, iy ∈ [-1, n]`, through the octahedral wrap
+/// of the map's border (`probe_octa::OctaLayout::border_source`).
+fn wrap_texel(ix: i32, iy: i32, n: u32) -> UVec2 {
+    let last = n as i32 - 1;
+    let (outside_x, outside_y) = (ix < 0 || ix > last, iy < 0 || iy > last);
+    let edge = |i: i32| if i < 0 { last } else { 0 };
+    let (x, y) = match (outside_x, outside_y) {
+        (false, false) => (ix, iy),
+        (true, true) => (edge(ix), edge(iy)),
+        (true, false) => (if ix < 0 { 0 } else { last }, last - iy),
+        (false, true) => (last - ix, if iy < 0 { 0 } else { last }),
+    };
+    UVec2::new(x as u32, y as u32)
+}
+
+/// The radiance `probe` holds towards the point `v` (relative to the probe) or, with `sky`,
+/// in direction `v`: the bilinear blend of the four texels around that direction that show
+/// it (for a surface point, the point within the thickness of the texel's plane; for the
+/// sky, sky texels), through the map's wrap, so that a surface seen by several texels is not
+/// quantised into texel-sized facets and an edge does not blend in what lies behind it. The
+/// texel `cell` alone where none does. Each texel blended costs a geometry and a radiance
+/// fetch; each rejected one a geometry fetch.
+fn filtered_radiance(
+    field: &PackedField,
+    probe: u32,
+    v: Vec3,
+    sky: bool,
+    cell: UVec2,
+    fetches: &mut u32,
+) -> [f32; 3] {
+    let n = field.resolution;
+    let r = v.length();
+    if r > 0.0 {
+        let o = probe_octa::encode(v / r).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
+        let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
+        let base = f.floor();
+        let frac = f - base;
+        let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        for k in 0..4u32 {
+            let (a, b) = ((k & 1) as i32, (k >> 1) as i32);
+            let w = if a == 1 { frac.x } else { 1.0 - frac.x }
+                * if b == 1 { frac.y } else { 1.0 - frac.y };
+            if w <= 0.0 {
+                continue;
+            }
+            let texel = wrap_texel(base.x as i32 + a, base.y as i32 + b, n);
+            *fetches += 1;
+            let g = field.geometry[padded_index(n, probe, texel.x, texel.y)];
+            let distance = f32::from_bits(g[0] & !crate::packed::SIGN_BIT);
+            let shows = if sky {
+                distance >= field.sky_distance
+            } else if distance < field.sky_distance {
+                // The point on the texel's surface: within its plane's thickness.
+                let center = probe_octa::decode(crate::surface::texel_center(n, texel.x, texel.y));
+                let normal = crate::surface::unpack_normal(g[1]);
+                let surface = crate::surface::texel_surface(
+                    n,
+                    center,
+                    distance,
+                    normal,
+                    field.thickness_scale,
+                );
+                (v - center * distance).dot(surface.visible_normal).abs() <= surface.thickness
+            } else {
+                false
+            };
+            if shows {
+                *fetches += 1;
+                sum += w * Vec3::from(radiance(field, probe, texel));
+                weight += w;
+            }
+        }
+        if weight > 0.0 {
+            return (sum / weight).to_array();
+        }
+    }
+    *fetches += 1;
+    radiance(field, probe, cell)
+}
+
 /// The interior texel holding `direction`.
 fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     let [x, y] = probe_octa::OctaLayout::new(resolution)
@@ -485,32 +565,41 @@ pub(crate) fn trace_ray<O: RayObserver>(
         if estimating {
             // The relaxed march's first place where the ray may meet what the probe saw; if
             // it sees the ray leave, the radiance in the ray's direction.
-            fetches += 1;
-            let cell = if answer.code == HIT {
+            let at = field.position(probe);
+            record.radiance = if answer.code == HIT {
+                let hit = origin + direction * answer.t;
                 record.t = answer.t;
-                record.position = (origin + direction * answer.t).to_array();
+                record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
-                answer.cell
+                filtered_radiance(field, probe, hit - at, false, answer.cell, &mut fetches)
             } else {
-                direction_cell(field.resolution, direction)
+                let cell = direction_cell(field.resolution, direction);
+                filtered_radiance(field, probe, direction, true, cell, &mut fetches)
             };
-            record.radiance = radiance(field, probe, cell);
             record.probe = probe;
             break;
         }
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         if answer.code == HIT || answer.code == MISS {
-            let (cell, normal) = if answer.code == HIT {
-                (answer.cell, crate::surface::unpack_normal(answer.normal))
+            let hit = origin + direction * answer.t;
+            let (normal, radiance) = if answer.code == HIT {
+                let v = hit - field.position(probe);
+                (
+                    crate::surface::unpack_normal(answer.normal),
+                    filtered_radiance(field, probe, v, false, answer.cell, &mut fetches),
+                )
             } else {
-                (direction_cell(field.resolution, direction), Vec3::ZERO)
+                let cell = direction_cell(field.resolution, direction);
+                (
+                    Vec3::ZERO,
+                    filtered_radiance(field, probe, direction, true, cell, &mut fetches),
+                )
             };
-            fetches += 1;
             record.status = answer.code;
             record.t = answer.t;
-            record.position = (origin + direction * answer.t).to_array();
+            record.position = hit.to_array();
             record.normal = normal.to_array();
-            record.radiance = radiance(field, probe, cell);
+            record.radiance = radiance;
             record.probe = probe;
             record.probes_tried = tried;
             record.texel_fetches = fetches;
@@ -645,11 +734,47 @@ pub(crate) fn look_up_point(
     };
     record.probes_tried = examined;
     if probe != NO_PROBE {
-        fetches += 1;
-        record.radiance = radiance(field, probe, cell);
+        record.radiance = if record.status == HIT {
+            filtered_radiance(
+                field,
+                probe,
+                x - field.position(probe),
+                false,
+                cell,
+                &mut fetches,
+            )
+        } else {
+            fetches += 1;
+            radiance(field, probe, cell)
+        };
         record.probe = probe;
         record.normal = normal.to_array();
     }
     record.texel_fetches = fetches;
     record
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The radiance blend's wrap is the layout's border: every border texel of the padded
+    /// map reads the interior texel `OctaLayout::pad` copies into it.
+    #[test]
+    fn wrap_texel_is_the_layouts_border() {
+        for n in [8u32, 16, 64] {
+            let layout = probe_octa::OctaLayout::new(n).unwrap();
+            for py in 0..n + 2 {
+                for px in 0..n + 2 {
+                    let got = wrap_texel(px as i32 - 1, py as i32 - 1, n);
+                    let [sx, sy] = layout.border_source(px, py).unwrap_or([px, py]);
+                    assert_eq!(
+                        got,
+                        UVec2::new(sx - 1, sy - 1),
+                        "n={n}, padded ({px}, {py})"
+                    );
+                }
+            }
+        }
+    }
 }

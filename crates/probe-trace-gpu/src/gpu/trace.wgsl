@@ -889,6 +889,82 @@ fn sees_point(probe: u32, p: vec3<f32>, strict: bool) -> bool {
     return dot(v - center * distance, surface.visible_normal) >= -slack;
 }
 
+// Interior texel (ix, iy), ix, iy in [-1, n], through the map's wrap (src/cpu/mod.rs
+// wrap_texel).
+fn wrap_texel(ix: i32, iy: i32, n: u32) -> vec2<u32> {
+    let last = i32(n) - 1;
+    let outside_x = ix < 0 || ix > last;
+    let outside_y = iy < 0 || iy > last;
+    var x = ix;
+    var y = iy;
+    if (outside_x && outside_y) {
+        x = select(0, last, ix < 0);
+        y = select(0, last, iy < 0);
+    } else if (outside_x) {
+        x = select(last, 0, ix < 0);
+        y = last - iy;
+    } else if (outside_y) {
+        x = last - ix;
+        y = select(last, 0, iy < 0);
+    }
+    return vec2<u32>(u32(x), u32(y));
+}
+
+// The depth-aware bilinear radiance of `probe` towards point v (relative to it) or, with
+// `sky`, in direction v (src/cpu/mod.rs filtered_radiance); `cell` alone where no texel
+// around shows it.
+fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> vec3<f32> {
+    let n = params.resolution;
+    let r = length(v);
+    if (r > 0.0) {
+        let o = clamp(octa_encode(v / r), vec2<f32>(-1.0), vec2<f32>(1.0));
+        let f = (o + vec2<f32>(1.0)) * (0.5 * f32(n)) - vec2<f32>(0.5);
+        let base = floor(f);
+        let frac = f - base;
+        var sum = vec3<f32>(0.0);
+        var weight = 0.0;
+        for (var k = 0u; k < 4u; k++) {
+            let a = i32(k & 1u);
+            let b = i32(k >> 1u);
+            var wx = 1.0 - frac.x;
+            if (a == 1) {
+                wx = frac.x;
+            }
+            var wy = 1.0 - frac.y;
+            if (b == 1) {
+                wy = frac.y;
+            }
+            let w = wx * wy;
+            if (w <= 0.0) {
+                continue;
+            }
+            let texel = wrap_texel(i32(base.x) + a, i32(base.y) + b, n);
+            fetches += 1u;
+            let g = geometry[padded_index(n, probe, texel)];
+            let distance = bitcast<f32>(g.x & ~SIGN_BIT);
+            var shows = distance >= params.sky_distance;
+            if (!sky) {
+                shows = false;
+                if (distance < params.sky_distance) {
+                    let center = octa_decode(texel_center(n, texel));
+                    let surface = texel_surface(n, center, distance, unpack_normal(g.y), params.thickness_scale);
+                    shows = abs(dot(v - center * distance, surface.visible_normal)) <= surface.thickness;
+                }
+            }
+            if (shows) {
+                fetches += 1u;
+                sum += w * radiance_at(probe, texel);
+                weight += w;
+            }
+        }
+        if (weight > 0.0) {
+            return sum / weight;
+        }
+    }
+    fetches += 1u;
+    return radiance_at(probe, cell);
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
@@ -965,32 +1041,34 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         }
         let answer = trace_probe(probe, ray, t, estimating);
         if (estimating) {
-            fetches += 1u;
-            var cell = texel_containing(params.resolution, direction);
+            let at = positions[probe].xyz;
             if (answer.code == HIT) {
+                let hit = origin + direction * answer.t;
                 record.t = answer.t;
-                record.position = origin + direction * answer.t;
+                record.position = hit;
                 record.normal = unpack_normal(answer.normal);
-                cell = answer.cell;
+                record.radiance = filtered_radiance(probe, hit - at, false, answer.cell);
+            } else {
+                let cell = texel_containing(params.resolution, direction);
+                record.radiance = filtered_radiance(probe, direction, true, cell);
             }
-            record.radiance = radiance_at(probe, cell);
             record.probe = probe;
             break;
         }
         if (answer.code == HIT || answer.code == MISS) {
-            var cell = answer.cell;
+            let hit = origin + direction * answer.t;
             var normal = vec3<f32>(0.0);
             if (answer.code == HIT) {
                 normal = unpack_normal(answer.normal);
+                record.radiance = filtered_radiance(probe, hit - positions[probe].xyz, false, answer.cell);
             } else {
-                cell = texel_containing(params.resolution, direction);
+                let cell = texel_containing(params.resolution, direction);
+                record.radiance = filtered_radiance(probe, direction, true, cell);
             }
-            fetches += 1u;
             record.status = answer.code;
             record.t = answer.t;
-            record.position = origin + direction * answer.t;
+            record.position = hit;
             record.normal = normal;
-            record.radiance = radiance_at(probe, cell);
             record.probe = probe;
             record.probes_tried = tried;
             record.texel_fetches = fetches;
@@ -1133,8 +1211,12 @@ fn look_up_point(index: u32) -> RayRecord {
     }
     record.probes_tried = examined;
     if (probe != NO_PROBE) {
-        fetches += 1u;
-        record.radiance = radiance_at(probe, cell);
+        if (record.status == HIT) {
+            record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, cell);
+        } else {
+            fetches += 1u;
+            record.radiance = radiance_at(probe, cell);
+        }
         record.probe = probe;
         record.normal = normal;
     }
