@@ -415,7 +415,7 @@ fn filtered_radiance(
                     normal,
                     field.thickness_scale,
                 );
-                (v - center * distance).dot(surface.visible_normal).abs() <= surface.thickness
+                (v - center * distance).dot(surface.visible_normal).abs() <= surface.plane_thickness
             } else {
                 false
             };

@@ -948,7 +948,7 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
                 if (distance < params.sky_distance) {
                     let center = octa_decode(texel_center(n, texel));
                     let surface = texel_surface(n, center, distance, unpack_normal(g.y), params.thickness_scale);
-                    shows = abs(dot(v - center * distance, surface.visible_normal)) <= surface.thickness;
+                    shows = abs(dot(v - center * distance, surface.visible_normal)) <= surface.plane_thickness;
                 }
             }
             if (shows) {
