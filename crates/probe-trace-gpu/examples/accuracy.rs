@@ -9,7 +9,8 @@
 //! defaults, with 8 and 32 probes per ray, without the nearest-probe extension (the
 //! selection's own candidates, 8 probes per ray: the tracer before it), without the distance
 //! ranges, and the hybrid (BVH hits, radiance looked up in the probes). Wrong answers are
-//! split into hits before the true one, hits behind it (the true surface passed) and others.
+//! split into hits before the true one, hits behind it (the true surface passed) and others
+//! (a miss for a hit, a hit for an escape).
 //!
 //! ```text
 //! cargo run --release -p probe-trace-gpu --example accuracy -- [cornell|sponza|sponza-region|breakfast|godot|all] [PROBES.json]
@@ -153,8 +154,14 @@ fn rows(
             max_probes: 8,
             ..TraceOptions::default()
         };
+        let cap = |max_probes| TraceOptions {
+            max_probes,
+            ..TraceOptions::default()
+        };
         for (variant, field, options) in [
-            ("default", &field, TraceOptions::default()),
+            ("default (16 probes)", &field, TraceOptions::default()),
+            ("8 probes", &field, cap(8)),
+            ("32 probes", &field, cap(32)),
             ("selection's own, 8 probes", &field, own_only),
             (
                 "no distance ranges",
@@ -351,14 +358,19 @@ fn sponza(region_only: bool, file: Option<&String>) {
     );
 }
 
-fn interior(label: &str, path: &str, camera: Option<&str>, counts: [u32; 3]) {
+/// An interior: its first camera, or (a file without cameras) one at the room's centre
+/// looking along −z; probes at the cell centres of its bounds.
+fn interior(label: &str, path: &str, counts: [u32; 3]) {
     let scene = Scene::load(probe_testdata::scene_path(path)).unwrap();
-    let camera = match camera {
-        Some(name) => scene.camera(name).unwrap().clone(),
-        None => scene.default_camera(),
+    let bounds = scene.bounds();
+    let camera = match scene.cameras().first() {
+        Some(camera) => camera.clone(),
+        None => {
+            let centre = (bounds.min + bounds.max) * 0.5;
+            Camera::look_at(centre, centre - Vec3::Z, Vec3::Y, 70f32.to_radians())
+        }
     };
     let rays = rays_from(&scene, &camera, 160, 90);
-    let bounds = scene.bounds();
     let grid = cell_centred(bounds.min, bounds.max, counts);
     let sky = 100.0 * bounds.size().length();
     rows(
@@ -388,14 +400,9 @@ fn main() {
         sponza(true, file);
     }
     if which == "breakfast" || which == "all" {
-        interior(
-            "breakfast room",
-            probe_testdata::BREAKFAST_ROOM,
-            None,
-            [4, 2, 4],
-        );
+        interior("breakfast room", probe_testdata::BREAKFAST_ROOM, [4, 2, 4]);
     }
     if which == "godot" || which == "all" {
-        interior("godot room", probe_testdata::GODOT_ROOM, None, [4, 2, 4]);
+        interior("godot room", probe_testdata::GODOT_ROOM, [4, 2, 4]);
     }
 }

@@ -1,5 +1,8 @@
 //! Time and texel fetches of one 1920×1080 ray set, hi-Z against two-level, on the GPU (the
-//! first wgpu adapter: lavapipe on the machines here) and on the CPU twin, in one run.
+//! first wgpu adapter: lavapipe on the machines here) and on the CPU twin, in one run; beside
+//! them the baseline a user weighs the probes against, the exact trace of the same rays
+//! against the scene's BVH (`Scene::closest_hits`, on all CPU threads), and the hybrid (those
+//! BVH hits, radiance looked up in the probes on the GPU and on the CPU twin).
 //!
 //! The rays are the mirror reflections of Sponza's `CameraMain` at 1920×1080 (pixels whose
 //! primary ray hits nothing are dropped); grid probes (default 8×2×4 = 64) baked by the test
@@ -17,10 +20,10 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use probe_index::ProbeGrid;
-use probe_scene::Scene;
+use probe_scene::{Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, GpuContext, GpuTracer, ProbeSelection, RayResult, TraceMethod,
-    TraceOptions, TraceSummary, Tracer,
+    CpuTracer, FieldOptions, GpuContext, GpuTracer, ProbeSelection, RayResult, SurfaceQuery,
+    TraceMethod, TraceOptions, TraceSummary, Tracer,
 };
 use support::{albedo_shade, mini_capture, reflection_rays, to_trace_rays};
 
@@ -61,7 +64,8 @@ fn main() {
             primary.push(camera.ray(x, y, width, height, glam::Vec2::ZERO));
         }
     }
-    let rays = to_trace_rays(&reflection_rays(&scene, &primary));
+    let bvh_rays = reflection_rays(&scene, &primary);
+    let rays = to_trace_rays(&bvh_rays);
     drop(primary);
     let shade = albedo_shade(&scene);
     // The grid spans x ∈ [-21, 21], y ∈ [6, 14], z ∈ [-6, 6].
@@ -161,7 +165,56 @@ fn main() {
             cpu_wall.as_secs_f64(),
         );
     }
+    // The baseline: the same rays against the BVH, then the hybrid's look-up of those hits.
+    let bvh_time = |rays: &[Ray]| {
+        let t = Instant::now();
+        let hits = scene.closest_hits(rays, f32::INFINITY);
+        (hits, t.elapsed())
+    };
+    let _ = bvh_time(&bvh_rays[..4096.min(bvh_rays.len())]);
+    let (hits, bvh) = bvh_time(&bvh_rays);
+    let queries: Vec<SurfaceQuery> = bvh_rays
+        .iter()
+        .zip(&hits)
+        .map(|(ray, hit)| match hit {
+            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
+            None => SurfaceQuery::escaped(ray.origin, ray.direction),
+        })
+        .collect();
+    let defaults = TraceOptions::default();
+    gpu.look_up(&gpu_field, &queries[..4096.min(queries.len())], &defaults)
+        .unwrap();
+    let g = gpu.look_up(&gpu_field, &queries, &defaults).unwrap();
+    let c = cpu.look_up(&cpu_field, &queries, &defaults).unwrap();
+    let s = TraceSummary::of(&g.results);
+    println!(
+        "| BVH (`Scene::closest_hits`, all CPU threads) | {:.1} % | {:.1} % | 0 | | | | | {:.3} s |",
+        100.0 * hits.iter().filter(|h| h.is_some()).count() as f64 / hits.len() as f64,
+        100.0 * hits.iter().filter(|h| h.is_none()).count() as f64 / hits.len() as f64,
+        bvh.as_secs_f64(),
+    );
+    println!(
+        "| hybrid: BVH + look-up | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | BVH + {:.3} s | BVH + {} | BVH + {:.3} s |",
+        100.0 * s.hits as f64 / s.rays as f64,
+        100.0 * s.misses as f64 / s.rays as f64,
+        100.0 * s.unknown as f64 / s.rays as f64,
+        s.fetches_per_ray,
+        s.probes_per_ray,
+        g.timing.wall.as_secs_f64(),
+        g.timing
+            .gpu
+            .map_or("n/a".to_owned(), |d| format!("{:.3} s", d.as_secs_f64())),
+        c.timing.wall.as_secs_f64(),
+    );
     let (h, t) = (&figures[0], &figures[1]);
+    println!(
+        "against the BVH: CPU twin hi-Z {:.2}×, two-level {:.2}×, hybrid (BVH + CPU look-up) {:.2}×; lavapipe hi-Z {:.2}× (wall), hybrid (BVH + lavapipe look-up) {:.2}×",
+        h.4.as_secs_f64() / bvh.as_secs_f64(),
+        t.4.as_secs_f64() / bvh.as_secs_f64(),
+        (bvh + c.timing.wall).as_secs_f64() / bvh.as_secs_f64(),
+        h.2.as_secs_f64() / bvh.as_secs_f64(),
+        (bvh + g.timing.wall).as_secs_f64() / bvh.as_secs_f64(),
+    );
     println!(
         "hi-Z / two-level: fetches {:.3}, GPU wall {:.3}, GPU timestamps {}, CPU twin {:.3}",
         h.1.fetches_per_ray / t.1.fetches_per_ray,

@@ -160,9 +160,10 @@
 //! **The hybrid** ([`Tracer::look_up`]). A renderer that can cast rays against its geometry
 //! exactly (a BVH, hardware ray queries) needs only the radiance at the hit: for each
 //! [`SurfaceQuery`], the selection's candidates for the point (then the nearest probes) are
-//! asked whether their texel towards the point shows it (the point within the texel's depth
-//! band, the probe on its lit side), and the best by view cosine over distance answers. No
-//! march: about 5 fetches a query.
+//! asked whether their texel towards the point shows it (the point on the texel's plane, the
+//! probe on its lit side), and the best by view cosine over distance answers with the blend of
+//! its texels around the point. An escaped ray takes the sky from a candidate that sees sky
+//! in its direction. No march: about 12 fetches a query.
 //!
 //! **Diffuse** (seed 001): trilinear grid or Delaunay barycentric weights times, optionally,
 //! the cubed Chebyshev weight of the probe's distance moments seen from the shading point

@@ -624,12 +624,12 @@ pub(crate) fn trace_ray<O: RayObserver>(
 ///
 /// Candidates are the selection's for the point, then (only if none of those sees it) the
 /// nearest probes. A candidate sees the point when it lies on the point's side of the surface
-/// and the texel holding the point's direction shows a surface whose depth band (`near` to
-/// `far`) contains the point's distance (one fetch). The best such probe, by the cosine of its
-/// view of the surface over its distance (edge texels weighed a quarter), answers HIT with its
-/// texel's radiance. If none sees it: UNKNOWN, answered by the candidate whose texel's
-/// distance comes closest to the point's. Escaped rays: MISS, the first candidate's sky along
-/// the direction.
+/// and the texel holding the point's direction shows a surface whose plane holds the point
+/// within the plane's thickness along its normal (one fetch). The best such probe, by the
+/// cosine of its view of the surface over its distance (edge texels weighed a quarter),
+/// answers HIT with the blend of its texels around the point ([`filtered_radiance`]). If none sees it: UNKNOWN, answered by the candidate whose texel's
+/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction from
+/// the first candidate (own, then nearest) whose texel there is sky.
 pub(crate) fn look_up_point(
     field: &PackedField,
     selection: &PackedSelection,
@@ -651,17 +651,45 @@ pub(crate) fn look_up_point(
         ..RayRecord::default()
     };
     if query.surface == 0 {
-        let probe = if list.len > 0 {
-            list.probes[0]
+        // The sky along the ray: from the first candidate whose texel in that direction sees
+        // the sky (a probe inside a room sees a wall there, whatever the ray left through),
+        // else the first candidate's texel.
+        let anchor = selector.anchor(x);
+        let extension = if anchor == NO_PROBE {
+            0
         } else {
-            selector.anchor(x)
+            params.nearest_candidates.min(NEAREST_ROW)
         };
+        let cell = direction_cell(field.resolution, direction);
+        let (mut sky, mut first, mut fetches, mut examined) = (NO_PROBE, NO_PROBE, 0u32, 0u32);
+        for i in 0..list.len + extension {
+            let q = selector.candidate(&list, anchor, NO_PROBE, i);
+            if q == NO_PROBE {
+                continue;
+            }
+            if first == NO_PROBE {
+                first = q;
+            }
+            examined += 1;
+            fetches += 1;
+            let texel = field.geometry[padded_index(field.resolution, q, cell.x, cell.y)];
+            if f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= params.sky_distance {
+                sky = q;
+                break;
+            }
+        }
+        let probe = if sky != NO_PROBE { sky } else { first };
         if probe != NO_PROBE {
             record.status = MISS;
-            record.radiance = radiance(field, probe, direction_cell(field.resolution, direction));
+            record.radiance = if sky != NO_PROBE {
+                filtered_radiance(field, probe, direction, true, cell, &mut fetches)
+            } else {
+                fetches += 1;
+                radiance(field, probe, cell)
+            };
             record.probe = probe;
-            record.probes_tried = 1;
-            record.texel_fetches = 1;
+            record.probes_tried = examined;
+            record.texel_fetches = fetches;
         }
         return record;
     }
@@ -711,9 +739,17 @@ pub(crate) fn look_up_point(
         if distance >= params.sky_distance {
             continue;
         }
-        let near = f32::from_bits(texel[2]);
-        let far = f32::from_bits(texel[3] & !crate::packed::SIGN_BIT);
-        if r >= near && r <= far {
+        // The texel shows the point: it lies on the texel's plane, within the plane's
+        // thickness along its normal.
+        let center = probe_octa::decode(crate::surface::texel_center(n, cell.x, cell.y));
+        let plane = crate::surface::texel_surface(
+            n,
+            center,
+            distance,
+            crate::surface::unpack_normal(texel[1]),
+            params.thickness_scale,
+        );
+        if (v - center * distance).dot(plane.visible_normal).abs() <= plane.plane_thickness {
             let edge = (texel[0] | texel[3]) & crate::packed::SIGN_BIT != 0;
             let score = facing / r * if edge { 0.25 } else { 1.0 };
             if score > best_score {

@@ -1116,18 +1116,46 @@ fn look_up_point(index: u32) -> RayRecord {
     record.pad1 = 0u;
     let n = params.resolution;
     if (surface == 0u) {
-        var probe = NO_PROBE;
-        if (list.len > 0u) {
-            probe = list.probes[0];
-        } else {
-            probe = nearest_probe(params.kd_nodes, params.kd_count, x);
+        let anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
+        var extension = 0u;
+        if (anchor != NO_PROBE) {
+            extension = min(params.nearest_candidates, NEAREST_ROW);
+        }
+        let cell = texel_containing(n, direction);
+        var sky = NO_PROBE;
+        var first = NO_PROBE;
+        var examined = 0u;
+        for (var i = 0u; i < list.len + extension; i++) {
+            let q = candidate(list, anchor, NO_PROBE, i);
+            if (q == NO_PROBE) {
+                continue;
+            }
+            if (first == NO_PROBE) {
+                first = q;
+            }
+            examined += 1u;
+            fetches += 1u;
+            let texel = geometry[padded_index(n, q, cell)];
+            if (bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance) {
+                sky = q;
+                break;
+            }
+        }
+        var probe = first;
+        if (sky != NO_PROBE) {
+            probe = sky;
         }
         if (probe != NO_PROBE) {
             record.status = MISS;
-            record.radiance = radiance_at(probe, texel_containing(n, direction));
+            if (sky != NO_PROBE) {
+                record.radiance = filtered_radiance(probe, direction, true, cell);
+            } else {
+                fetches += 1u;
+                record.radiance = radiance_at(probe, cell);
+            }
             record.probe = probe;
-            record.probes_tried = 1u;
-            record.texel_fetches = 1u;
+            record.probes_tried = examined;
+            record.texel_fetches = fetches;
         }
         return record;
     }
@@ -1181,9 +1209,9 @@ fn look_up_point(index: u32) -> RayRecord {
         if (distance >= params.sky_distance) {
             continue;
         }
-        let near = bitcast<f32>(texel.z);
-        let far = bitcast<f32>(texel.w & ~SIGN_BIT);
-        if (r >= near && r <= far) {
+        let center = octa_decode(texel_center(n, cell));
+        let plane = texel_surface(n, center, distance, unpack_normal(texel.y), params.thickness_scale);
+        if (abs(dot(v - center * distance, plane.visible_normal)) <= plane.plane_thickness) {
             var score = facing / r;
             if (((texel.x | texel.w) & SIGN_BIT) != 0u) {
                 score = score * 0.25;
