@@ -182,6 +182,11 @@ impl PartialBake {
         &self.bake
     }
 
+    /// The shard's probes, baked, without the shard record.
+    pub fn into_bake(self) -> ProbeBake {
+        self.bake
+    }
+
     /// Writes the partial bake to `dir` as [`ProbeBake::save`] does (atomically: a shard that
     /// dies while saving leaves no half-written directory, and a re-run replaces a previous
     /// result whole), with the shard record in the manifest.

@@ -236,6 +236,7 @@
 
 mod cpu;
 mod error;
+mod footprint;
 mod gpu;
 mod input;
 mod packed;
@@ -249,6 +250,7 @@ pub use cpu::{
     PHASE_WINDOW_TEXELS, PROFILE_LEVELS, TraceOutput,
 };
 pub use error::{GpuError, TraceError, UploadError};
+pub use footprint::{DeviceBuffer, DeviceFootprint};
 pub use gpu::{
     DIFFUSE_ENTRY_POINT, DIFFUSE_WGSL, DiffuseBinding, DiffuseBuffers, GpuContext, GpuField,
     GpuIrradiance, GpuTracer, TRACE_ENTRY_POINT, TRACE_WGSL, TraceBinding, TraceBuffers,
