@@ -164,7 +164,7 @@ fn fields_over_the_device_limits_are_refused_naming_the_buffer() {
             error,
             UploadError::DeviceLimit {
                 buffer: "irradiance",
-                bytes: 8 * 8 * 8 * 12,
+                bytes: 6144,
                 ..
             }
         ),
