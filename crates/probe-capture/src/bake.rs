@@ -237,10 +237,10 @@ pub enum BakeError {
     OverMemory(#[from] MemoryExceeded),
 }
 
-/// Bytes a bake holds per padded texel: radiance, normal and distance (28), the min/max
-/// pyramid (at most 11), their copies while the derived maps are gathered and while the EXR
-/// layers are written (39 more), and slack for the per-thread sample sums.
-const BYTES_PER_BAKE_TEXEL: u64 = 96;
+/// Bytes a bake holds per padded texel: radiance, normal, distance and distance range (36),
+/// the min/max pyramid (at most 11), their copies while the derived maps are gathered and
+/// while the EXR layers are written (47 more), and slack for the per-thread sample sums.
+const BYTES_PER_BAKE_TEXEL: u64 = 112;
 
 /// The memory a bake of `probes` probes with `settings` plans to use (its maps, their copies
 /// while saving, and the derived maps), in bytes: what [`bake_with_limit`] and
@@ -439,8 +439,15 @@ pub struct ProbeGeometry {
     layout: OctaLayout,
     normals: Vec<Vec3>,
     distances: Vec<f32>,
+    /// Per texel the nearest and farthest radial distance over [`RANGE_SAMPLES`]² sub-texel
+    /// rays and the centre's (padded like `distances`); empty when not captured.
+    distance_ranges: Vec<Vec2>,
     stats: Vec<ProbeStats>,
 }
+
+/// Sub-texel rays per axis a bake casts to find each texel's distance range
+/// ([`ProbeBake::distance_ranges`]): a 3×3 grid at the centres of the texel's ninths.
+pub const RANGE_SAMPLES: u32 = 3;
 
 impl ProbeGeometry {
     /// The probe positions, world space.
@@ -508,16 +515,62 @@ pub fn capture_geometry(
     let layout = check_capture(positions, resolution)?;
     let total = positions.len() * resolution as usize;
     let done = AtomicUsize::new(0);
-    Ok(geometry_pass(scene, positions, layout, &|| {
-        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-        progress(d, total);
-    }))
+    Ok(geometry_pass(
+        scene,
+        positions,
+        layout,
+        GeometryRays::CentresOnly,
+        &|| {
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(d, total);
+        },
+    ))
+}
+
+/// What the geometry pass casts per texel.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum GeometryRays {
+    /// One ray through the texel's centre.
+    CentresOnly,
+    /// The centre and [`RANGE_SAMPLES`]² sub-texel rays for the distance range.
+    WithRanges,
+}
+
+/// The nearest and farthest radial distance of probe `origin` over the sub-texel grid of
+/// interior texel `(ix, iy)` and its centre's `centre` ([`MISS_DISTANCE`] for misses).
+fn texel_distance_range(
+    scene: &Scene,
+    origin: Vec3,
+    layout: OctaLayout,
+    (ix, iy): (u32, u32),
+    centre: f32,
+) -> Vec2 {
+    let step = 2.0 / layout.resolution() as f32;
+    let k = RANGE_SAMPLES as f32;
+    let (mut near, mut far) = (centre, centre);
+    for sy in 0..RANGE_SAMPLES {
+        for sx in 0..RANGE_SAMPLES {
+            let q = Vec2::new(
+                -1.0 + (ix as f32 + (sx as f32 + 0.5) / k) * step,
+                -1.0 + (iy as f32 + (sy as f32 + 0.5) / k) * step,
+            );
+            let ray = Ray {
+                origin,
+                direction: probe_octa::decode(q),
+            };
+            let t = trace_texel_geometry(scene, &ray).distance;
+            near = near.min(t);
+            far = far.max(t);
+        }
+    }
+    Vec2::new(near, far)
 }
 
 fn geometry_pass(
     scene: &Scene,
     positions: &[Vec3],
     layout: OctaLayout,
+    rays: GeometryRays,
     row_done: &(dyn Fn() + Sync),
 ) -> ProbeGeometry {
     let n = layout.resolution() as usize;
@@ -592,13 +645,60 @@ fn geometry_pass(
             }
         })
         .collect();
+    let distance_ranges = match rays {
+        GeometryRays::CentresOnly => Vec::new(),
+        GeometryRays::WithRanges => range_pass(scene, positions, layout, &distances, row_done),
+    };
     ProbeGeometry {
         positions: positions.to_vec(),
         layout,
         normals,
         distances,
+        distance_ranges,
         stats,
     }
+}
+
+/// Every texel's [`texel_distance_range`], padded maps probe after probe; `row_done` ticks
+/// once per interior row.
+fn range_pass(
+    scene: &Scene,
+    positions: &[Vec3],
+    layout: OctaLayout,
+    distances: &[f32],
+    row_done: &(dyn Fn() + Sync),
+) -> Vec<Vec2> {
+    let n = layout.resolution() as usize;
+    let side = layout.padded_size() as usize;
+    let len = layout.padded_len();
+    let mut ranges = vec![Vec2::ZERO; positions.len() * len];
+    ranges
+        .par_chunks_mut(len)
+        .zip(distances.par_chunks(len))
+        .zip(positions.par_iter())
+        .for_each(|((range_map, distance_map), &origin)| {
+            range_map
+                .par_chunks_mut(side)
+                .skip(1)
+                .take(n)
+                .enumerate()
+                .for_each(|(iy, row)| {
+                    for ix in 0..n {
+                        let centre = distance_map[(iy + 1) * side + ix + 1];
+                        row[ix + 1] = texel_distance_range(
+                            scene,
+                            origin,
+                            layout,
+                            (ix as u32, iy as u32),
+                            centre,
+                        );
+                    }
+                    row_done();
+                });
+            // The slice has the layout's length, so padding cannot fail.
+            let _ = layout.pad(range_map);
+        });
+    ranges
 }
 
 /// Probes baked from a scene: the in-memory form the GPU tracer uploads as is, and what
@@ -646,6 +746,7 @@ pub struct ProbeBake {
     pub(crate) radiance: Vec<Vec3>,
     pub(crate) normals: Vec<Vec3>,
     pub(crate) distances: Vec<f32>,
+    pub(crate) distance_ranges: Vec<Vec2>,
     pub(crate) pyramid_levels: u32,
     pub(crate) pyramid: Vec<Vec2>,
     pub(crate) moments: Vec<Vec2>,
@@ -720,6 +821,15 @@ impl ProbeBake {
     /// Radial distances of all probes, padded `(N+2)²` per probe.
     pub fn distances(&self) -> &[f32] {
         &self.distances
+    }
+
+    /// Per texel the nearest (`x`) and farthest (`y`) radial distance the baker saw inside
+    /// the texel: its centre ray and [`RANGE_SAMPLES`]² sub-texel rays ([`MISS_DISTANCE`] for
+    /// misses), laid out as [`Self::distances`]. A nearer sample marks geometry the centre's
+    /// plane does not model (a thin or partly covering surface, an edge inside the texel), a
+    /// farther one a plane that ends inside it: the tracer's fine test uses both.
+    pub fn distance_ranges(&self) -> &[Vec2] {
+        &self.distance_ranges
     }
 
     /// Number of pyramid levels per probe.
@@ -826,14 +936,16 @@ impl ProbeBake {
 }
 
 /// Bakes probes at `positions` in `scene`: the geometry pass ([`capture_geometry`]), the
-/// radiance pass (per texel the rays [`BakeSettings::sampling`] asks for, shaded by the
-/// [`Shader`]) and the derived maps, all spread over rayon's thread pool.
+/// distance ranges ([`ProbeBake::distance_ranges`]), the radiance pass (per texel the rays
+/// [`BakeSettings::sampling`] asks for, shaded by the [`Shader`]) and the derived maps, all
+/// spread over rayon's thread pool.
 ///
 /// Deterministic: every sample draws its numbers from a Sobol stream keyed by
 /// `(seed, probe, texel, replicate)`, the adaptive pass decides from those alone, and per-probe
 /// sums run in a fixed order, so the same inputs give the same bytes whatever the number of
-/// threads. `progress` receives `(done, total)` with `total = 3 · probes · N + probes` (rows
-/// of the geometry pass and of the two radiance passes, then one unit per probe's derived
+/// threads. `progress` receives `(done, total)` with `total = 4 · probes · N + probes` (rows
+/// of the geometry pass, the distance ranges and the two radiance passes, then one unit per
+/// probe's derived
 /// maps); it is called from worker threads.
 ///
 /// # Errors
@@ -910,14 +1022,14 @@ pub(crate) fn bake_probes(
     let shader = Shader::new(scene, environment, settings.bounces)?;
     let n = settings.resolution as usize;
     let probes = positions.len();
-    let total = 3 * probes * n + probes;
+    let total = 4 * probes * n + probes;
     let done = AtomicUsize::new(0);
     let tick = || {
         let d = done.fetch_add(1, Ordering::Relaxed) + 1;
         progress(d, total);
     };
 
-    let geometry = geometry_pass(scene, positions, layout, &tick);
+    let geometry = geometry_pass(scene, positions, layout, GeometryRays::WithRanges, &tick);
     let (radiance, sampling) =
         radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
 
@@ -968,6 +1080,7 @@ pub(crate) fn bake_probes(
         radiance,
         normals: geometry.normals,
         distances: geometry.distances,
+        distance_ranges: geometry.distance_ranges,
         pyramid_levels,
         pyramid,
         moments,

@@ -19,7 +19,7 @@ use crate::exr_io::{self, ExrLayer, ExrRead};
 use crate::shard::{Shard, ShardRecord};
 
 /// The bake format version this crate writes and the newest it reads.
-pub const BAKE_FORMAT_VERSION: u32 = 2;
+pub const BAKE_FORMAT_VERSION: u32 = 3;
 
 /// The `format` field of every bake manifest.
 const FORMAT_NAME: &str = "probe-capture bake";
@@ -119,10 +119,12 @@ pub enum BakeLoadError {
         supported: u32,
     },
     /// The bake was written in an older format than this crate reads (version 1 has no
-    /// per-probe noise estimates). Fix: re-bake with this version.
+    /// per-probe noise estimates, version 2 no per-texel distance ranges). Fix: re-bake with
+    /// this version.
     #[error(
         "{}: bake format version {found} is older than the supported version {supported} \
-         (it records no noise estimates): re-bake it with this version",
+         (version 1 records no noise estimates, version 2 no distance ranges): re-bake it \
+         with this version",
         path.display()
     )]
     OlderFormat {
@@ -450,17 +452,25 @@ fn bake_files(bake: &ProbeBake) -> Vec<(&'static str, &'static str, Vec<ExrLayer
         ),
         (
             GEOMETRY_FILE,
-            "hit normal (world space, zero for misses) and radial distance in metres (miss_distance for misses), layout as radiance",
+            "hit normal (world space, zero for misses), radial distance in metres (miss_distance for misses) and the nearest and farthest distance over the texel's sub-texel rays, layout as radiance",
             vec![ExrLayer {
                 name: "geometry".into(),
                 width: side,
                 height: side * probes,
                 channels: split_channels(
-                    ["normal.X", "normal.Y", "normal.Z", "distance.R"],
+                    [
+                        "normal.X",
+                        "normal.Y",
+                        "normal.Z",
+                        "distance.R",
+                        "range.min",
+                        "range.max",
+                    ],
                     bake.normals
                         .iter()
                         .zip(&bake.distances)
-                        .map(|(n, &d)| [n.x, n.y, n.z, d]),
+                        .zip(&bake.distance_ranges)
+                        .map(|((n, &d), r)| [n.x, n.y, n.z, d, r.x, r.y]),
                 ),
             }],
         ),
@@ -534,8 +544,9 @@ impl ProbeBake {
     /// content hash, probe positions, resolution, units, settings, environment, per-probe
     /// stats, the files and their channels, tool version) and six EXR files of 32-bit float
     /// texture arrays (each probe's padded map below the previous one): `radiance.exr`
-    /// (`radiance.R/G/B`), `geometry.exr` (`normal.X/Y/Z`, `distance.R`), `pyramid.exr` (one
-    /// layer per level, `pyramid.min/max`), `moments.exr` (`moments.mean/mean2`),
+    /// (`radiance.R/G/B`), `geometry.exr` (`normal.X/Y/Z`, `distance.R`, `range.min/max`),
+    /// `pyramid.exr` (one layer per level, `pyramid.min/max`), `moments.exr`
+    /// (`moments.mean/mean2`),
     /// `irradiance.exr` (`irradiance.R/G/B`) and `sh.exr` (`sh.R/G/B`, 9 columns per probe).
     ///
     /// The write is atomic: everything goes to a temporary directory beside `dir`, which then
@@ -778,13 +789,20 @@ impl ProbeBake {
         .map(Vec3::from_array)
         .collect();
         let geometry_layers = read_file(dir, GEOMETRY_FILE)?;
-        let geometry: Vec<[f32; 4]> = take_channels(
+        let geometry: Vec<[f32; 6]> = take_channels(
             dir,
             GEOMETRY_FILE,
             &geometry_layers,
             "geometry",
             (side, side * probes),
-            ["normal.X", "normal.Y", "normal.Z", "distance.R"],
+            [
+                "normal.X",
+                "normal.Y",
+                "normal.Z",
+                "distance.R",
+                "range.min",
+                "range.max",
+            ],
         )?
         .collect();
         let normals = geometry
@@ -792,6 +810,7 @@ impl ProbeBake {
             .map(|g| Vec3::new(g[0], g[1], g[2]))
             .collect();
         let distances = geometry.iter().map(|g| g[3]).collect();
+        let distance_ranges = geometry.iter().map(|g| Vec2::new(g[4], g[5])).collect();
         let pyramid_layers = read_file(dir, PYRAMID_FILE)?;
         let mut per_level: Vec<Vec<Vec2>> = Vec::new();
         for level in 0..manifest.pyramid_levels {
@@ -868,6 +887,7 @@ impl ProbeBake {
             radiance,
             normals,
             distances,
+            distance_ranges,
             pyramid_levels: manifest.pyramid_levels,
             pyramid,
             moments,

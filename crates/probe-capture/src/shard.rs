@@ -652,6 +652,7 @@ fn append(whole: &mut ProbeBake, part: ProbeBake) {
         radiance,
         normals,
         distances,
+        distance_ranges,
         pyramid_levels: _,
         pyramid,
         moments,
@@ -664,6 +665,7 @@ fn append(whole: &mut ProbeBake, part: ProbeBake) {
     whole.radiance.extend(radiance);
     whole.normals.extend(normals);
     whole.distances.extend(distances);
+    whole.distance_ranges.extend(distance_ranges);
     whole.pyramid.extend(pyramid);
     whole.moments.extend(moments);
     whole.irradiance.extend(irradiance);

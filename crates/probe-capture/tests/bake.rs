@@ -8,7 +8,7 @@ use probe_capture::{
     BAKE_FORMAT_VERSION, BakeError, BakeLoadError, BakeSaveError, BakeSettings, Environment,
     MANIFEST_FILE, MISS_DISTANCE, ProbeBake, Sampling, bake, no_progress,
 };
-use probe_octa::{FineRead, MinMaxPyramid, ShL2Rgb, distance_moments, irradiance_map};
+use probe_octa::{FineRead, MinMaxPyramid, OctaMap, ShL2Rgb, distance_moments, irradiance_map};
 use probe_scene::Scene;
 use probe_scene::builtin::{BOXES_GRID, grid_cell_centers};
 
@@ -83,6 +83,7 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
     assert_eq!(probes.radiance().len(), 3 * len);
     assert_eq!(probes.normals().len(), 3 * len);
     assert_eq!(probes.distances().len(), 3 * len);
+    assert_eq!(probes.distance_ranges().len(), 3 * len);
     assert_eq!(probes.moments().len(), 3 * 8 * 8);
     assert_eq!(probes.irradiance().len(), 3 * 6 * 6);
     assert_eq!(probes.sh().len(), 3);
@@ -104,6 +105,21 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
             );
         }
         assert!(probes.pyramid_level(p, 3).is_none());
+        // Each texel's range holds its centre's distance, and its border is padded like the
+        // distances. The box is open on one side: some texels straddle its rim, seeing the
+        // wall in part of their cone and the sky in the rest.
+        let ranges = &probes.distance_ranges()[p * len..(p + 1) * len];
+        let (mut spread, mut rim) = (0, 0);
+        for (t, (range, &d)) in ranges.iter().zip(distance.texels()).enumerate() {
+            assert!(range.x <= d && d <= range.y, "texel {t}: {range} around {d}");
+            spread += usize::from(range.y > range.x);
+            rim += usize::from(range.x < MISS_DISTANCE && range.y >= MISS_DISTANCE);
+        }
+        let mut padded_ranges = OctaMap::from_padded(16, ranges.to_vec()).unwrap();
+        padded_ranges.pad();
+        assert_eq!(padded_ranges.texels(), ranges);
+        assert!(spread > len / 2, "only {spread} texels see a range of distances");
+        assert!(rim > 0 && rim < len / 4, "{rim} texels on the open side's rim");
         let clamped = distance.map(|r| r.min(probes.moments_max_distance()));
         assert_eq!(
             probes.moments_map(p).unwrap(),
@@ -217,7 +233,7 @@ fn progress_reaches_the_total() {
     let settings = small_settings();
     bake(&scene, &cornell_probes(), &settings, &progress).unwrap();
     let (done, total) = *last.lock().unwrap();
-    assert_eq!(total, 3 * 3 * 16 + 3);
+    assert_eq!(total, 4 * 3 * 16 + 3);
     assert_eq!(done, total);
     assert_eq!(calls.load(Ordering::Relaxed), total);
 }

@@ -317,7 +317,7 @@ pub fn light_field(baked: &ProbeBake) -> LightField<'_> {
         radial_distance: baked.distances(),
         normals: baked.normals(),
         radiance: baked.radiance(),
-        distance_range: None,
+        distance_range: Some(baked.distance_ranges()),
         sky_distance: MISS_DISTANCE * 0.5,
     }
 }
