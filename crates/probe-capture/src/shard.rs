@@ -324,23 +324,19 @@ pub enum MergeError {
     /// Two shards were baked from different scenes (content hashes differ). Fix: re-bake the
     /// shard from the same scene as the others.
     #[error(
-        "{} was baked from scene {scene:?} (content hash {hash}) but {} from {first_scene:?} \
-         (content hash {first_hash}): re-bake it from the same scene",
+        "{} was baked from scene {scene} but {} from {first_scene}: re-bake it from the same \
+         scene",
         path.display(), first.display()
     )]
     OtherScene {
         /// The shard directory that differs.
         path: PathBuf,
-        /// Its scene's name.
+        /// Its scene: name and content hash (hex).
         scene: String,
-        /// Its scene's content hash (hex).
-        hash: String,
         /// The first shard directory given.
         first: PathBuf,
-        /// The first directory's scene name.
+        /// The first directory's scene: name and content hash (hex).
         first_scene: String,
-        /// The first directory's scene hash (hex).
-        first_hash: String,
     },
     /// Two shards were baked with different settings (or lit differently). Fix: re-bake the
     /// shard with the same options as the others.
@@ -542,13 +538,13 @@ pub fn merge_shards(
             });
         }
         if header.scene_hash != first.scene_hash {
+            let describe =
+                |name: &str, hash: &[u8; 32]| format!("{name:?} (content hash {})", hex(hash));
             return Err(MergeError::OtherScene {
                 path: dir.to_owned(),
-                scene: header.scene_name.clone(),
-                hash: hex(&header.scene_hash),
+                scene: describe(&header.scene_name, &header.scene_hash),
                 first: first_dir.to_owned(),
-                first_scene: first.scene_name.clone(),
-                first_hash: hex(&first.scene_hash),
+                first_scene: describe(&first.scene_name, &first.scene_hash),
             });
         }
         let difference = settings_difference(&header.settings, &first.settings)

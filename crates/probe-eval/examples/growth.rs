@@ -145,7 +145,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .get(1)
         .map_or("64,1024,4096,16384", String::as_str)
         .split(',')
-        .map(|c| c.trim().parse().expect("COUNTS: comma-separated probe counts"))
+        .map(|c| {
+            c.trim()
+                .parse()
+                .expect("COUNTS: comma-separated probe counts")
+        })
         .collect();
     let out = args.get(2).cloned().unwrap_or_else(|| "growth.md".into());
     let resolution = env_or("GROWTH_RES", 32);
@@ -218,9 +222,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             ));
         }
 
-        let (tets, s, m) = measured("delaunay", probes, || {
-            Tetrahedralization::build(&positions)
-        });
+        let (tets, s, m) = measured("delaunay", probes, || Tetrahedralization::build(&positions));
         drop(tets?);
         record("index: Delaunay", count, s, m);
         let (svo, s, m) = measured("octree", probes, || {
@@ -320,10 +322,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 None => write!(md, " – |")?,
             }
         }
-        let points: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|m| (m.probes as f64, m.seconds))
-            .collect();
+        let points: Vec<(f64, f64)> = rows.iter().map(|m| (m.probes as f64, m.seconds)).collect();
         let fit = slope(&points).map_or("–".to_owned(), |s| format!("{s:.2}"));
         let steps: Vec<String> = points
             .windows(2)
