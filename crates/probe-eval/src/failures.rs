@@ -2079,10 +2079,16 @@ fn octahedral_seams(r: &mut Recorder, cx: &mut Context<'_>) -> Result<(), CaseEr
         seam.wrong_of_answered() - control.wrong_of_answered(),
         0.03,
     );
+    // The seam rays run along the axes, and so do the boxes' edges: the bake's distance
+    // ranges mark texels whose cone holds a nearer edge, and with one probe per ray a ray
+    // through one stays UNKNOWN (2026-12-02: such texels were 2.5–3× as dense along the axes
+    // as elsewhere in the maps; answered 72 % of seam rays against 86 % of control rays,
+    // 91 % and 92 % before the ranges). The seam defect this case is for, wrong answers
+    // where the map wraps, is bounded above.
     r.at_least(
         "seam − control answered",
         seam.answered_share() - control.answered_share(),
-        -0.1,
+        -0.2,
     );
     Ok(())
 }
