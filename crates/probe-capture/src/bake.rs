@@ -218,6 +218,18 @@ pub enum BakeError {
     /// The environment is unusable. Fix: see [`ShaderError`].
     #[error(transparent)]
     Shader(#[from] ShaderError),
+    /// A sharded bake ([`bake_shard`](crate::bake_shard)) asked for more shards than there
+    /// are probes, so some shard would hold none. Fix: use at most as many shards as probes.
+    #[error(
+        "{shards} shards of {probes} probes would leave a shard without probes: use at most \
+         {probes} shards"
+    )]
+    TooManyShards {
+        /// The shard count asked for.
+        shards: u32,
+        /// The probes in the whole set.
+        probes: usize,
+    },
     /// The bake's estimated memory ([`bake_memory_estimate`]) exceeds the memory limit;
     /// refused before any ray is traced. Fix: bake fewer probes or a lower resolution, or
     /// raise the limit ([`bake_with_limit`], `--max-memory`) if the machine has the memory.
@@ -979,6 +991,21 @@ pub fn bake_with_limit(
     limit: MemoryLimit,
     progress: Progress<'_>,
 ) -> Result<ProbeBake, BakeError> {
+    bake_probes(scene, positions, 0, settings, limit, progress)
+}
+
+/// [`bake_with_limit`] of `positions` taken as probes `first_probe..` of a larger set: the
+/// samples of each probe are keyed by its index in that set, so a probe's bytes do not depend
+/// on which other probes are baked with it (what sharded bakes rely on, see
+/// [`bake_shard`](crate::bake_shard)).
+pub(crate) fn bake_probes(
+    scene: &Scene,
+    positions: &[Vec3],
+    first_probe: usize,
+    settings: &BakeSettings,
+    limit: MemoryLimit,
+    progress: Progress<'_>,
+) -> Result<ProbeBake, BakeError> {
     settings.validate()?;
     let layout = check_capture(positions, settings.resolution)?;
     limit.check(
@@ -1003,7 +1030,8 @@ pub fn bake_with_limit(
     };
 
     let geometry = geometry_pass(scene, positions, layout, GeometryRays::WithRanges, &tick);
-    let (radiance, sampling) = radiance_pass(&shader, positions, layout, settings, &tick);
+    let (radiance, sampling) =
+        radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
 
     let moments_max_distance = settings
         .moments_max_distance
@@ -1239,9 +1267,12 @@ fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f
     counts_for(above)
 }
 
+/// The radiance of `positions`, which are probes `first_probe..` of the bake's whole set: a
+/// probe's samples are keyed by its index in the whole set.
 fn radiance_pass(
     shader: &Shader<'_>,
     positions: &[Vec3],
+    first_probe: usize,
     layout: OctaLayout,
     settings: &BakeSettings,
     row_done: &(dyn Fn() + Sync),
@@ -1259,7 +1290,8 @@ fn radiance_pass(
         .par_chunks_mut(len)
         .zip(positions.par_iter())
         .enumerate()
-        .map(|(probe, (map, &origin))| {
+        .map(|(local, (map, &origin))| {
+            let probe = first_probe + local;
             let sample_rows = |texels: &mut [TexelSums], counts: Option<&[u32]>| {
                 texels.par_chunks_mut(nu).enumerate().for_each(|(iy, row)| {
                     for (ix, texel) in row.iter_mut().enumerate() {

@@ -16,6 +16,7 @@ use crate::bake::{
 };
 use crate::environment::Environment;
 use crate::exr_io::{self, ExrLayer, ExrRead};
+use crate::shard::{Shard, ShardRecord};
 
 /// The bake format version this crate writes and the newest it reads.
 pub const BAKE_FORMAT_VERSION: u32 = 3;
@@ -204,6 +205,39 @@ pub enum BakeLoadError {
         /// The estimate and the limit.
         source: probe_scene::memory::MemoryExceeded,
     },
+    /// The directory holds one shard of a sharded bake ([`PartialBake`](crate::PartialBake)),
+    /// not a whole bake. Fix: merge the shards first ([`merge_shards`](crate::merge_shards),
+    /// `probes bake-merge OUT SHARD_DIR...`) and load the merged bake.
+    #[error(
+        "{}: this is shard {index}/{count} of a sharded bake (probes {start}..{end} of \
+         {total}), not a whole bake: merge the shards first (`probes bake-merge OUT SHARD_DIR...`)",
+        path.display()
+    )]
+    PartialBake {
+        /// The manifest's path.
+        path: PathBuf,
+        /// The shard's index `K`.
+        index: u32,
+        /// The shard count `N`.
+        count: u32,
+        /// The shard's first probe (index in the whole set).
+        start: usize,
+        /// One past the shard's last probe.
+        end: usize,
+        /// Probes in the whole set.
+        total: usize,
+    },
+    /// The directory holds a whole bake where a shard of a sharded bake was expected. Fix:
+    /// pass the directories written by `probes bake --shard K/N` ([`PartialBake::save`](crate::PartialBake::save)).
+    #[error(
+        "{}: a whole bake, not a shard of a sharded bake (its manifest has no `shard` record); \
+         pass the directories written by `probes bake --shard K/N`",
+        path.display()
+    )]
+    NotAShard {
+        /// The manifest's path.
+        path: PathBuf,
+    },
     /// An EXR layer has another size than the manifest implies, or a channel is not stored
     /// as 32-bit float. Fix: re-bake; the file does not belong to this manifest.
     #[error("{}: layer {layer:?}: {reason}", path.display())]
@@ -320,12 +354,32 @@ struct ManifestFile {
     layers: Vec<ManifestLayer>,
 }
 
+/// Which part of a sharded bake a partial bake holds (absent in whole bakes).
+#[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
+struct ManifestShard {
+    /// The shard's index `K` (0-based).
+    index: u32,
+    /// The shard count `N`.
+    count: u32,
+    /// The shard's first probe, as an index in the whole set.
+    probe_start: usize,
+    /// One past the shard's last probe.
+    probe_end: usize,
+    /// Probes in the whole set.
+    total_probes: usize,
+    /// SHA-256 of the whole set's positions (`probe_set_hash`), hex.
+    probe_set_hash: String,
+}
+
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
 struct Manifest {
     format: String,
     format_version: u32,
     tool: String,
     scene: ManifestScene,
+    /// Present only in a partial bake (one shard of a sharded bake).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    shard: Option<ManifestShard>,
     units: BTreeMap<String, String>,
     probe_count: usize,
     resolution: u32,
@@ -502,7 +556,16 @@ impl ProbeBake {
     /// # Errors
     /// [`BakeSaveError`]; on error `dir` is unchanged.
     pub fn save(&self, dir: impl AsRef<Path>) -> Result<(), BakeSaveError> {
-        let dir = dir.as_ref();
+        self.save_with_shard(dir.as_ref(), None)
+    }
+
+    /// [`ProbeBake::save`], recording `shard` in the manifest when the bake is one shard of a
+    /// sharded bake.
+    pub(crate) fn save_with_shard(
+        &self,
+        dir: &Path,
+        shard: Option<&ShardRecord>,
+    ) -> Result<(), BakeSaveError> {
         let io_error = |path: &Path, source| BakeSaveError::Io {
             path: path.to_owned(),
             source,
@@ -525,7 +588,15 @@ impl ProbeBake {
         };
         atomic::write_dir(dir, io_error, may_replace, |temporary| {
             let files = bake_files(self);
-            let manifest = self.manifest(&files);
+            let mut manifest = self.manifest(&files);
+            manifest.shard = shard.map(|r| ManifestShard {
+                index: r.shard.index(),
+                count: r.shard.count(),
+                probe_start: r.probe_range.start,
+                probe_end: r.probe_range.end,
+                total_probes: r.total_probes,
+                probe_set_hash: hex(&r.probe_set_hash),
+            });
             for (file, _, layers) in files {
                 let path = temporary.join(file);
                 exr_io::write(&path, layers).map_err(|source| BakeSaveError::Exr {
@@ -555,6 +626,7 @@ impl ProbeBake {
                 source: self.scene_source.clone(),
                 content_hash: hex(&self.scene_content_hash),
             },
+            shard: None,
             units: units(),
             probe_count: self.probe_count(),
             resolution: self.resolution(),
@@ -641,53 +713,41 @@ impl ProbeBake {
         scene: Option<&Scene>,
         limit: MemoryLimit,
     ) -> Result<ProbeBake, BakeLoadError> {
-        let dir = dir.as_ref();
-        let manifest_path = dir.join(MANIFEST_FILE);
-        let text = std::fs::read_to_string(&manifest_path).map_err(|source| BakeLoadError::Io {
-            path: manifest_path.clone(),
-            source,
-        })?;
-        let value: serde_json::Value =
-            serde_json::from_str(&text).map_err(|source| BakeLoadError::Manifest {
-                path: manifest_path.clone(),
-                source,
-            })?;
-        let format = value.get("format").and_then(|f| f.as_str());
-        if format != Some(FORMAT_NAME) {
-            return Err(BakeLoadError::NotABake {
-                path: manifest_path,
-                found: format.map(str::to_owned),
-            });
+        Ok(ProbeBake::load_part(dir.as_ref(), scene, limit, false)?.0)
+    }
+
+    /// Loads a whole bake (`shard == false`; a partial bake is refused with
+    /// [`BakeLoadError::PartialBake`]) or one shard of a sharded bake (`shard == true`; a
+    /// whole bake is refused with [`BakeLoadError::NotAShard`]), with the shard's record.
+    pub(crate) fn load_part(
+        dir: &Path,
+        scene: Option<&Scene>,
+        limit: MemoryLimit,
+        shard: bool,
+    ) -> Result<(ProbeBake, Option<ShardRecord>), BakeLoadError> {
+        let ManifestRead {
+            path: manifest_path,
+            manifest,
+            checked,
+        } = read_manifest(dir)?;
+        match (&checked.shard, shard) {
+            (Some(record), false) => {
+                return Err(BakeLoadError::PartialBake {
+                    path: manifest_path,
+                    index: record.shard.index(),
+                    count: record.shard.count(),
+                    start: record.probe_range.start,
+                    end: record.probe_range.end,
+                    total: record.total_probes,
+                });
+            }
+            (None, true) => {
+                return Err(BakeLoadError::NotAShard {
+                    path: manifest_path,
+                });
+            }
+            _ => {}
         }
-        let version = value.get("format_version").and_then(|v| v.as_u64());
-        match version {
-            Some(v) if v > u64::from(BAKE_FORMAT_VERSION) => {
-                return Err(BakeLoadError::NewerFormat {
-                    path: manifest_path,
-                    found: v,
-                    supported: BAKE_FORMAT_VERSION,
-                });
-            }
-            Some(v) if v == u64::from(BAKE_FORMAT_VERSION) => {}
-            Some(v) if v >= 1 => {
-                return Err(BakeLoadError::OlderFormat {
-                    path: manifest_path,
-                    found: v,
-                    supported: BAKE_FORMAT_VERSION,
-                });
-            }
-            _ => {
-                return Err(BakeLoadError::InvalidManifest {
-                    path: manifest_path,
-                    reason: "`format_version` is missing or not a positive integer".into(),
-                });
-            }
-        }
-        let manifest: Manifest =
-            serde_json::from_value(value).map_err(|source| BakeLoadError::Manifest {
-                path: manifest_path.clone(),
-                source,
-            })?;
         if let Some(scene) = scene {
             let scene_hash = hex(&scene.content_hash());
             if scene_hash != manifest.scene.content_hash {
@@ -699,11 +759,6 @@ impl ProbeBake {
                 });
             }
         }
-        let checked =
-            check_manifest(&manifest).map_err(|reason| BakeLoadError::InvalidManifest {
-                path: manifest_path.clone(),
-                reason,
-            })?;
         limit
             .check(
                 format_args!(
@@ -820,7 +875,7 @@ impl ProbeBake {
             })
             .collect();
 
-        Ok(ProbeBake {
+        let bake = ProbeBake {
             scene_name: manifest.scene.name,
             scene_source: manifest.scene.source,
             scene_content_hash: checked.scene_hash,
@@ -857,7 +912,8 @@ impl ProbeBake {
                     capped_share: s.capped_share,
                 })
                 .collect(),
-        })
+        };
+        Ok((bake, checked.shard))
     }
 }
 
@@ -865,6 +921,152 @@ struct CheckedManifest {
     layout: OctaLayout,
     settings: BakeSettings,
     scene_hash: [u8; 32],
+    shard: Option<ShardRecord>,
+}
+
+/// A bake's manifest, read and checked (no EXR file read).
+struct ManifestRead {
+    path: PathBuf,
+    manifest: Manifest,
+    checked: CheckedManifest,
+}
+
+/// Reads and checks the manifest of the bake in `dir`: its format, version and consistency.
+fn read_manifest(dir: &Path) -> Result<ManifestRead, BakeLoadError> {
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let text = std::fs::read_to_string(&manifest_path).map_err(|source| BakeLoadError::Io {
+        path: manifest_path.clone(),
+        source,
+    })?;
+    let value: serde_json::Value =
+        serde_json::from_str(&text).map_err(|source| BakeLoadError::Manifest {
+            path: manifest_path.clone(),
+            source,
+        })?;
+    let format = value.get("format").and_then(|f| f.as_str());
+    if format != Some(FORMAT_NAME) {
+        return Err(BakeLoadError::NotABake {
+            path: manifest_path,
+            found: format.map(str::to_owned),
+        });
+    }
+    let version = value.get("format_version").and_then(|v| v.as_u64());
+    match version {
+        Some(v) if v > u64::from(BAKE_FORMAT_VERSION) => {
+            return Err(BakeLoadError::NewerFormat {
+                path: manifest_path,
+                found: v,
+                supported: BAKE_FORMAT_VERSION,
+            });
+        }
+        Some(v) if v == u64::from(BAKE_FORMAT_VERSION) => {}
+        Some(v) if v >= 1 => {
+            return Err(BakeLoadError::OlderFormat {
+                path: manifest_path,
+                found: v,
+                supported: BAKE_FORMAT_VERSION,
+            });
+        }
+        _ => {
+            return Err(BakeLoadError::InvalidManifest {
+                path: manifest_path,
+                reason: "`format_version` is missing or not a positive integer".into(),
+            });
+        }
+    }
+    let manifest: Manifest =
+        serde_json::from_value(value).map_err(|source| BakeLoadError::Manifest {
+            path: manifest_path.clone(),
+            source,
+        })?;
+    let checked = check_manifest(&manifest).map_err(|reason| BakeLoadError::InvalidManifest {
+        path: manifest_path.clone(),
+        reason,
+    })?;
+    Ok(ManifestRead {
+        path: manifest_path,
+        manifest,
+        checked,
+    })
+}
+
+/// What a bake's manifest says about it, read without its EXR files (for checking shards
+/// against each other before loading them).
+pub(crate) struct BakeHeader {
+    /// The scene's name.
+    pub(crate) scene_name: String,
+    /// The scene's content hash.
+    pub(crate) scene_hash: [u8; 32],
+    /// The settings the bake was made with.
+    pub(crate) settings: BakeSettings,
+    /// The environment it was lit with.
+    pub(crate) environment: Environment,
+    /// The distance moments were clamped at.
+    pub(crate) moments_max_distance: f32,
+    /// Probes in this bake.
+    pub(crate) probe_count: usize,
+    /// The shard record, for a partial bake.
+    pub(crate) shard: Option<ShardRecord>,
+}
+
+/// Reads the header of the bake in `dir` ([`BakeHeader`]).
+pub(crate) fn read_header(dir: &Path) -> Result<BakeHeader, BakeLoadError> {
+    let read = read_manifest(dir)?;
+    Ok(BakeHeader {
+        scene_name: read.manifest.scene.name,
+        scene_hash: read.checked.scene_hash,
+        settings: read.checked.settings,
+        environment: Environment::from(&read.manifest.environment),
+        moments_max_distance: read.manifest.moments_max_distance,
+        probe_count: read.manifest.probe_count,
+        shard: read.checked.shard,
+    })
+}
+
+/// Parses 64 hex digits.
+fn parse_hash(hash: &str) -> Option<[u8; 32]> {
+    if hash.len() != 64 || !hash.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    let mut bytes = [0u8; 32];
+    for (i, byte) in bytes.iter_mut().enumerate() {
+        *byte = u8::from_str_radix(&hash[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(bytes)
+}
+
+/// Checks a manifest's shard record against its probe count.
+fn check_shard(m: &Manifest) -> Result<Option<ShardRecord>, String> {
+    let Some(r) = &m.shard else {
+        return Ok(None);
+    };
+    let shard = Shard::new(r.index, r.count).map_err(|e| format!("`shard`: {e}"))?;
+    let range = r.probe_start..r.probe_end;
+    if r.total_probes < r.count as usize {
+        return Err(format!(
+            "`shard.total_probes` {} is less than `shard.count` {}",
+            r.total_probes, r.count
+        ));
+    }
+    if shard.probe_range(r.total_probes) != range || range.len() != m.probe_count {
+        return Err(format!(
+            "`shard` says probes {}..{} of {} for shard {shard}, which holds probes {:?}, \
+             and the manifest has {} probes",
+            r.probe_start,
+            r.probe_end,
+            r.total_probes,
+            shard.probe_range(r.total_probes),
+            m.probe_count
+        ));
+    }
+    let probe_set_hash = parse_hash(&r.probe_set_hash)
+        .ok_or_else(|| "`shard.probe_set_hash` is not 64 hex digits".to_owned())?;
+    Ok(Some(ShardRecord {
+        shard,
+        probe_range: range,
+        total_probes: r.total_probes,
+        probe_set_hash,
+    }))
 }
 
 fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
@@ -939,18 +1141,13 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
             m.miss_distance
         ));
     }
-    let hash = &m.scene.content_hash;
-    let mut scene_hash = [0u8; 32];
-    if hash.len() != 64 || !hash.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return Err("`scene.content_hash` is not 64 hex digits".into());
-    }
-    for (i, byte) in scene_hash.iter_mut().enumerate() {
-        *byte = u8::from_str_radix(&hash[2 * i..2 * i + 2], 16).map_err(|e| e.to_string())?;
-    }
+    let scene_hash = parse_hash(&m.scene.content_hash)
+        .ok_or_else(|| "`scene.content_hash` is not 64 hex digits".to_owned())?;
     Ok(CheckedManifest {
         layout,
         settings,
         scene_hash,
+        shard: check_shard(m)?,
     })
 }
 

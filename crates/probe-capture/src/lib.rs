@@ -13,6 +13,10 @@
 //! - **stores bakes** ([`ProbeBake::save`], [`ProbeBake::load`]): a directory with a JSON
 //!   manifest and 32-bit float EXR texture arrays with named channels, written atomically,
 //!   read back bit for bit, refused for another scene or a newer format;
+//! - **shards bakes** ([`bake_shard`], [`merge_shards`]): shard `K/N` of the probes bakes on
+//!   its own machine into a [`PartialBake`]; the `N` partial bakes merge into the bake an
+//!   unsharded run gives, byte for byte once saved (each probe's samples are keyed by its
+//!   index in the whole set); missing, duplicate or mismatched shards are refused;
 //! - **renders the reference** ([`render`]): direct light, the seeds' one-bounce indirect
 //!   glossy component and full global illumination, to an [`Image`] saved as EXR or
 //!   tone-mapped PNG, and the **evaluation rays** the probe tracer is compared on
@@ -97,12 +101,12 @@ mod preview;
 mod render;
 mod rng;
 mod shading;
+mod shard;
 
 pub use bake::{
     BakeError, BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, NOISE_REPLICATES, ProbeBake,
     ProbeGeometry, ProbeSampling, ProbeStats, Progress, RANGE_SAMPLES, Sampling, bake,
-    bake_memory_estimate,
-    bake_with_limit, capture_geometry, no_progress,
+    bake_memory_estimate, bake_with_limit, capture_geometry, no_progress,
 };
 pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FILE};
 pub use environment::Environment;
@@ -115,3 +119,6 @@ pub use preview::{PreviewError, PreviewPaths};
 pub use render::{Component, RenderError, RenderSettings, find_camera, render};
 pub use rng::{Rng, Sampler, SobolSampler};
 pub use shading::{RUSSIAN_ROULETTE_BOUNCES, Shader, ShaderError};
+pub use shard::{
+    MergeError, PartialBake, Shard, ShardError, bake_shard, merge_shards, probe_set_hash,
+};

@@ -111,15 +111,24 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
         let ranges = &probes.distance_ranges()[p * len..(p + 1) * len];
         let (mut spread, mut rim) = (0, 0);
         for (t, (range, &d)) in ranges.iter().zip(distance.texels()).enumerate() {
-            assert!(range.x <= d && d <= range.y, "texel {t}: {range} around {d}");
+            assert!(
+                range.x <= d && d <= range.y,
+                "texel {t}: {range} around {d}"
+            );
             spread += usize::from(range.y > range.x);
             rim += usize::from(range.x < MISS_DISTANCE && range.y >= MISS_DISTANCE);
         }
         let mut padded_ranges = OctaMap::from_padded(16, ranges.to_vec()).unwrap();
         padded_ranges.pad();
         assert_eq!(padded_ranges.texels(), ranges);
-        assert!(spread > len / 2, "only {spread} texels see a range of distances");
-        assert!(rim > 0 && rim < len / 4, "{rim} texels on the open side's rim");
+        assert!(
+            spread > len / 2,
+            "only {spread} texels see a range of distances"
+        );
+        assert!(
+            rim > 0 && rim < len / 4,
+            "{rim} texels on the open side's rim"
+        );
         let clamped = distance.map(|r| r.min(probes.moments_max_distance()));
         assert_eq!(
             probes.moments_map(p).unwrap(),

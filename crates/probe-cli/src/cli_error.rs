@@ -22,6 +22,9 @@ pub enum CliError {
     /// The bake could not be read.
     #[error("reading the bake: {0}")]
     BakeLoad(#[from] probe_capture::BakeLoadError),
+    /// Shards could not be merged.
+    #[error("merging shards: {0}")]
+    Merge(#[from] probe_capture::MergeError),
     /// Previews could not be written.
     #[error("writing previews: {0}")]
     Preview(#[from] probe_capture::PreviewError),

@@ -32,6 +32,8 @@ enum Command {
     Index(commands::index::Args),
     /// Bake light-field probes (radiance, normals, radial distance, derived maps).
     Bake(commands::bake::Args),
+    /// Join the partial bakes of `bake --shard K/N` into the whole bake (byte for byte).
+    BakeMerge(commands::bake_merge::Args),
     /// Render the path-traced reference (direct, one-bounce glossy, or full GI).
     Reference(commands::reference::Args),
     /// Place probes automatically (grid, relocated grid, SDF, medial axis, seed 002, minimal).
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
         Command::SceneInfo(args) => commands::scene_info::run(args),
         Command::Index(args) => commands::index::run(args),
         Command::Bake(args) => commands::bake::run(args),
+        Command::BakeMerge(args) => commands::bake_merge::run(args),
         Command::Reference(args) => commands::reference::run(args),
         Command::Place(args) => commands::place::run(args),
         Command::Render(args) => commands::render::run(args),

@@ -120,8 +120,31 @@ pub enum UploadError {
         /// Probes in the light field.
         probe_count: usize,
     },
-    /// The data is too large to address or to bind on this device. Fix: use fewer or smaller
-    /// probes (or a device with larger storage-buffer limits).
+    /// A buffer of the field is larger than the device allows (its `max_buffer_size` or
+    /// `max_storage_buffer_binding_size`; every buffer is bound whole); refused before any
+    /// buffer is created. Fix: what `lower` says (fewer probes, e.g. a split of the set, or a
+    /// lower bake resolution), or a device with larger limits. Check ahead of baking with
+    /// [`DeviceFootprint`](crate::DeviceFootprint).
+    #[error(
+        "`{buffer}` needs {} on the device, above its `{limit_name}` of {}: {lower}",
+        crate::footprint::describe_bytes(*bytes),
+        crate::footprint::describe_bytes(*limit)
+    )]
+    DeviceLimit {
+        /// Which buffer.
+        buffer: &'static str,
+        /// Bytes it needs.
+        bytes: u64,
+        /// The device limit it exceeds: `"max_storage_buffer_binding_size"` or
+        /// `"max_buffer_size"`.
+        limit_name: &'static str,
+        /// The limit's value.
+        limit: u64,
+        /// What to lower.
+        lower: &'static str,
+    },
+    /// The data is too large to address with 32-bit indices in the shaders. Fix: use fewer or
+    /// smaller probes.
     #[error("`{buffer}` needs {bytes} bytes, above the limit of {limit}")]
     TooLarge {
         /// Which buffer.

@@ -24,6 +24,11 @@
 //!   buffer into a results buffer, into the caller's `wgpu::CommandEncoder` ([`TraceBuffers`],
 //!   [`RayRecord`]); [`TRACE_WGSL`], [`trace_bind_group_layout_entries`] and
 //!   [`GpuTracer::bind_trace`] let an engine build its own pipeline around the shader.
+//! - [`DeviceFootprint`]: the storage buffers a field takes on the device, byte for byte, and
+//!   their check against a device's `max_buffer_size` and `max_storage_buffer_binding_size`.
+//!   [`GpuTracer`] runs it before packing or creating any buffer and refuses a field that does
+//!   not fit with [`UploadError::DeviceLimit`] (the buffer, its size, the limit and what to
+//!   lower); run it before baking to choose probes and resolution for a device.
 //!
 //! # Example
 //!
@@ -236,6 +241,7 @@
 
 mod cpu;
 mod error;
+mod footprint;
 mod gpu;
 mod input;
 mod packed;
@@ -249,6 +255,7 @@ pub use cpu::{
     PHASE_WINDOW_TEXELS, PROFILE_LEVELS, TraceOutput,
 };
 pub use error::{GpuError, TraceError, UploadError};
+pub use footprint::{DeviceBuffer, DeviceFootprint};
 pub use gpu::{
     DIFFUSE_ENTRY_POINT, DIFFUSE_WGSL, DiffuseBinding, DiffuseBuffers, GpuContext, GpuField,
     GpuIrradiance, GpuTracer, TRACE_ENTRY_POINT, TRACE_WGSL, TraceBinding, TraceBuffers,

@@ -5,8 +5,9 @@ use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
 use crate::spec::{MemoryArgs, SunArgs, open_scene_with_limit, probe_set, warnings_json};
-use probe_capture::{BakeSettings, ProbeBake, Sampling, bake_with_limit};
+use probe_capture::{BakeSettings, ProbeBake, Sampling, Shard, bake_shard, bake_with_limit};
 use serde_json::{Value, json};
+use std::ops::Range;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -50,6 +51,13 @@ pub struct Args {
     /// Also write PNG previews (radiance, normal, distance) of this probe into the bake folder.
     #[arg(long)]
     pub preview_probe: Option<usize>,
+    /// Bake only shard K/N of the probes (K counts from 0; shard K holds probes K·P/N up to
+    /// (K+1)·P/N of the P given) into a partial bake at `--out`. Each probe is baked exactly
+    /// as in the whole bake, so `probes bake-merge OUT SHARD_DIR...` joins the N partial
+    /// bakes into the bake an unsharded run writes, byte for byte. Every shard must be given
+    /// the same scene, probes and options.
+    #[arg(long, conflicts_with = "preview_probe")]
+    pub shard: Option<Shard>,
     /// The memory limit.
     #[command(flatten)]
     pub memory: MemoryArgs,
@@ -77,12 +85,38 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         progress.set_length(total as u64);
         progress.set_position(done as u64);
     };
-    let baked = bake_with_limit(&scene, &probes.positions, &settings, limit, &on_progress);
-    progress.finish_and_clear();
-    let baked = baked?;
-    let bake_seconds = start.elapsed().as_secs_f64();
-    let save_start = Instant::now();
-    baked.save(&args.out)?;
+    let (baked, shard) = match args.shard {
+        Some(shard) => {
+            let part = bake_shard(
+                &scene,
+                &probes.positions,
+                shard,
+                &settings,
+                limit,
+                &on_progress,
+            );
+            progress.finish_and_clear();
+            let part = part?;
+            let bake_seconds = start.elapsed().as_secs_f64();
+            part.save(&args.out)?;
+            let record = ShardSummary {
+                shard: part.shard(),
+                probe_range: part.probe_range(),
+                total_probes: part.total_probes(),
+            };
+            ((part.into_bake(), bake_seconds), Some(record))
+        }
+        None => {
+            let baked = bake_with_limit(&scene, &probes.positions, &settings, limit, &on_progress);
+            progress.finish_and_clear();
+            let baked = baked?;
+            let bake_seconds = start.elapsed().as_secs_f64();
+            baked.save(&args.out)?;
+            ((baked, bake_seconds), None)
+        }
+    };
+    let (baked, bake_seconds) = baked;
+    let save_seconds = start.elapsed().as_secs_f64() - bake_seconds;
     let previews = match args.preview_probe {
         Some(probe) => Some(baked.write_previews(probe, &args.out)?),
         None => None,
@@ -92,10 +126,18 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         scene_warnings: warnings_json(&scene),
         out: args.out.clone(),
         bake_seconds,
-        save_seconds: save_start.elapsed().as_secs_f64(),
+        save_seconds,
         previews: previews.map(|p| [p.radiance, p.normal, p.distance]),
         baked,
+        shard,
     }))
+}
+
+/// Which shard a sharded run baked.
+struct ShardSummary {
+    shard: Shard,
+    probe_range: Range<usize>,
+    total_probes: usize,
 }
 
 struct BakeSummary {
@@ -106,6 +148,7 @@ struct BakeSummary {
     bake_seconds: f64,
     save_seconds: f64,
     previews: Option<[PathBuf; 3]>,
+    shard: Option<ShardSummary>,
 }
 
 impl BakeSummary {
@@ -153,6 +196,13 @@ impl Report for BakeSummary {
             "save_seconds": self.save_seconds,
             "probe_stats": stats,
             "previews": self.previews.as_ref().map(|p| p.iter().map(|f| f.display().to_string()).collect::<Vec<_>>()),
+            "shard": self.shard.as_ref().map(|s| json!({
+                "index": s.shard.index(),
+                "count": s.shard.count(),
+                "probe_start": s.probe_range.start,
+                "probe_end": s.probe_range.end,
+                "total_probes": s.total_probes,
+            })),
         })
     }
 
@@ -164,7 +214,18 @@ impl Report for BakeSummary {
             .iter()
             .filter(|p| p.back_face_share > 0.25)
             .count();
-        let mut text = format!(
+        let mut text = match &self.shard {
+            Some(s) => format!(
+                "shard {} of a sharded bake: probes {}..{} of {} (merge the {} shards with `probes bake-merge OUT SHARD_DIR...`)\n",
+                s.shard,
+                s.probe_range.start,
+                s.probe_range.end,
+                s.total_probes,
+                s.shard.count()
+            ),
+            None => String::new(),
+        };
+        text += &format!(
             "baked {} probes of {} at {}² × {:.1} spp ({}), {} bounce(s) in {:.2} s ({:.2} M primary rays/s), saved to {} in {:.2} s\n\
              noise (tone-mapped variance per texel, from the replicates): {}\n\
              probes seeing mostly back faces (share > 0.25, likely inside geometry): {}\n",

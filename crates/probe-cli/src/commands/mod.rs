@@ -1,6 +1,7 @@
 //! One module per `probes` subcommand.
 
 pub mod bake;
+pub mod bake_merge;
 pub mod demo;
 pub mod eval;
 pub mod index;

@@ -12,10 +12,11 @@ use wgpu::util::DeviceExt;
 
 use crate::cpu::{DiffuseOutput, TraceOutput};
 use crate::error::{GpuError, TraceError, UploadError};
+use crate::footprint::DeviceFootprint;
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 use crate::packed::{
-    PackedField, PackedIrradiance, PackedSelection, diffuse_params, prepare_points, prepare_rays,
-    trace_params,
+    MAX_RESOLUTION, MIN_RESOLUTION, PackedField, PackedIrradiance, PackedSelection, diffuse_params,
+    prepare_points, prepare_rays, trace_params,
 };
 use crate::ray::{
     DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, SurfaceQuery, Timing,
@@ -674,21 +675,19 @@ impl GpuTracer {
         &self.diffuse_pass.pipeline
     }
 
-    /// A read-only storage buffer holding `data`, checked against the device's limits.
+    /// A read-only storage buffer holding `data`, checked against the device's limits (the
+    /// upload checked the footprint before packing; this guards the packed sizes).
     fn storage_buffer(
         &self,
         label: &'static str,
         data: &[u8],
     ) -> Result<wgpu::Buffer, UploadError> {
-        let bytes = data.len() as u64;
-        let limit = self.binding_limit();
-        if bytes > limit {
-            return Err(UploadError::TooLarge {
-                buffer: label,
-                bytes,
-                limit,
-            });
-        }
+        crate::footprint::check_buffer(
+            label,
+            data.len() as u64,
+            "upload fewer probes or bake at a lower resolution",
+            &self.limits,
+        )?;
         Ok(self
             .device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -1040,6 +1039,13 @@ impl Tracer for GpuTracer {
         selection: &ProbeSelection<'_>,
         options: &FieldOptions,
     ) -> Result<GpuField, UploadError> {
+        // Every buffer against the device's limits before packing or creating any (an
+        // invalid resolution is left to the packing's own error).
+        let n = field.resolution;
+        if n.is_power_of_two() && (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&n) {
+            DeviceFootprint::light_field(field.positions.len(), n, Some(selection))
+                .check(&self.limits)?;
+        }
         let mut meta = PackedField::new(field, options)?;
         let selection = PackedSelection::new(selection, field.positions)?;
         let positions = self.storage_buffer("positions", bytemuck::cast_slice(&meta.positions))?;
@@ -1073,6 +1079,13 @@ impl Tracer for GpuTracer {
         field: &IrradianceField<'_>,
         interpolation: &Interpolation<'_>,
     ) -> Result<GpuIrradiance, UploadError> {
+        DeviceFootprint::irradiance(
+            field.positions.len(),
+            field.irradiance_resolution.min(1 << 16),
+            field.moments_resolution.min(1 << 16),
+            Some(interpolation),
+        )
+        .check(&self.limits)?;
         let mut meta = PackedIrradiance::new(field, interpolation)?;
         let positions = self.storage_buffer(
             "irradiance positions",
