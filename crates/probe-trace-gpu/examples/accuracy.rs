@@ -5,11 +5,12 @@
 //! compared with the BVH's closest hits. The CPU twin is used (the GPU gives the same answers;
 //! see the `gpu_trace` tests), and every time is on the same threads as the BVH's.
 //!
-//! Prints Markdown table rows: per probe set and selection, the light-field tracer with its
-//! defaults, with 8 and 32 probes per ray, without the nearest-probe extension (the
+//! Prints Markdown table rows: per probe set and selection, the light-field tracer with the
+//! distance ranges and 16, 8 or 32 probes per ray, without the nearest-probe extension (the
 //! selection's own candidates, 8 probes per ray: the tracer before it), without the distance
-//! ranges, and the hybrid (BVH hits, radiance looked up in the probes). Wrong answers are
-//! split into hits before the true one, hits behind it (the true surface passed) and others
+//! ranges (probe-eval's default, chosen by this table), and the hybrid (BVH hits, radiance
+//! looked up in the probes). Wrong answers are split into hits before the true one, hits
+//! behind it (the true surface passed) and others
 //! (a miss for a hit, a hit for an escape).
 //!
 //! ```text
@@ -159,12 +160,20 @@ fn rows(
             ..TraceOptions::default()
         };
         for (variant, field, options) in [
-            ("default (16 probes)", &field, TraceOptions::default()),
-            ("8 probes", &field, cap(8)),
-            ("32 probes", &field, cap(32)),
-            ("selection's own, 8 probes", &field, own_only),
             (
-                "no distance ranges",
+                "16 probes, distance ranges",
+                &field,
+                TraceOptions::default(),
+            ),
+            ("8 probes, distance ranges", &field, cap(8)),
+            ("32 probes, distance ranges", &field, cap(32)),
+            (
+                "selection's own, 8 probes, distance ranges",
+                &field,
+                own_only,
+            ),
+            (
+                "16 probes, no distance ranges (probe-eval's default)",
                 &field_without_ranges,
                 TraceOptions::default(),
             ),
