@@ -8,8 +8,9 @@
 //! Defaults: 64 probes (a 4×4×4 grid over the atrium, as probe-scene's `closest_hit`
 //! benchmark; other counts use an `n×n×n`-ish grid over the same box), 256², adaptive
 //! sampling with the library's defaults (`SAMPLES` = 0; any other value is a fixed count per
-//! texel), 1 bounce. Prints the time of each phase (geometry pass, radiance pass, derived
-//! maps, read off the progress callback), the total, the rays cast and, with `SAVE_DIR`, the
+//! texel), 1 bounce. Prints the time of each phase (geometry pass, distance ranges, radiance
+//! pass, derived maps, read off the progress callback), the total, the rays cast and, with
+//! `SAVE_DIR`, the
 //! time to save the bake there (PNG previews of probe 0 go to `SAVE_DIR-previews`). Loading
 //! the scene and building its BVH are timed apart.
 
@@ -17,7 +18,7 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::Vec3;
-use probe_capture::{BakeSettings, Sampling, bake};
+use probe_capture::{BakeSettings, RANGE_SAMPLES, Sampling, bake};
 use probe_scene::Scene;
 
 fn grid(count: usize) -> Vec<Vec3> {
@@ -70,7 +71,7 @@ fn main() {
     let positions = grid(probes);
     let n = settings.resolution as usize;
     let rows = positions.len() * n;
-    let marks = Mutex::new([None::<f64>; 2]);
+    let marks = Mutex::new([None::<f64>; 3]);
     let start = Instant::now();
     let progress = |done: usize, _total: usize| {
         let t = start.elapsed().as_secs_f64();
@@ -78,13 +79,16 @@ fn main() {
         if done >= rows && marks[0].is_none() {
             marks[0] = Some(t);
         }
-        if done >= 3 * rows && marks[1].is_none() {
+        if done >= 2 * rows && marks[1].is_none() {
             marks[1] = Some(t);
+        }
+        if done >= 4 * rows && marks[2].is_none() {
+            marks[2] = Some(t);
         }
     };
     let baked = bake(&scene, &positions, &settings, &progress).expect("bake");
     let total = start.elapsed().as_secs_f64();
-    let [geometry, radiance] = marks
+    let [geometry, ranges, radiance] = marks
         .into_inner()
         .expect("marks")
         .map(|m| m.unwrap_or(total));
@@ -104,10 +108,16 @@ fn main() {
         texels as f64 / geometry / 1e6
     );
     println!(
+        "  distance ranges {:.2} s ({} sub-texel rays, {:.2} M rays/s)",
+        ranges - geometry,
+        texels * (RANGE_SAMPLES * RANGE_SAMPLES) as usize,
+        (texels * (RANGE_SAMPLES * RANGE_SAMPLES) as usize) as f64 / (ranges - geometry) / 1e6
+    );
+    println!(
         "  radiance pass {:.2} s ({} radiance samples, {:.2} M samples/s)",
-        radiance - geometry,
+        radiance - ranges,
         samples,
-        samples as f64 / (radiance - geometry) / 1e6
+        samples as f64 / (radiance - ranges) / 1e6
     );
     if let Some(noise) = baked.noise() {
         println!("  noise (tone-mapped variance per texel, from the replicates) {noise:.3e}");
