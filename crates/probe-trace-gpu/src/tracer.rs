@@ -154,6 +154,22 @@ trait ErasedTracer: Send {
     ) -> Result<DiffuseOutput, TraceError>;
 }
 
+/// The field `field` as tracer `tracer`'s own type, or [`TraceError::ForeignField`] when
+/// another tracer uploaded it.
+fn own_field<'a, T>(tracer: &T, field: &'a AnyField) -> Result<&'a T::Field, TraceError>
+where
+    T: Tracer,
+    T::Field: 'static,
+{
+    field
+        .inner
+        .downcast_ref::<T::Field>()
+        .ok_or_else(|| TraceError::ForeignField {
+            uploaded_by: field.uploaded_by.clone(),
+            tracer: Tracer::describe(tracer),
+        })
+}
+
 impl<T> ErasedTracer for T
 where
     T: Tracer + Send,
@@ -193,12 +209,7 @@ where
         rays: &[TraceRay],
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError> {
-        let Some(own) = field.inner.downcast_ref::<T::Field>() else {
-            return Err(TraceError::ForeignField {
-                uploaded_by: field.uploaded_by.clone(),
-                tracer: Tracer::describe(self),
-            });
-        };
+        let own = own_field::<T>(self, field)?;
         Tracer::trace(self, own, rays, options)
     }
 
@@ -208,12 +219,7 @@ where
         queries: &[SurfaceQuery],
         options: &TraceOptions,
     ) -> Result<TraceOutput, TraceError> {
-        let Some(own) = field.inner.downcast_ref::<T::Field>() else {
-            return Err(TraceError::ForeignField {
-                uploaded_by: field.uploaded_by.clone(),
-                tracer: Tracer::describe(self),
-            });
-        };
+        let own = own_field::<T>(self, field)?;
         Tracer::look_up(self, own, queries, options)
     }
 
