@@ -439,9 +439,6 @@ pub struct ProbeGeometry {
     layout: OctaLayout,
     normals: Vec<Vec3>,
     distances: Vec<f32>,
-    /// Per texel the nearest and farthest radial distance over [`RANGE_SAMPLES`]² sub-texel
-    /// rays and the centre's (padded like `distances`); empty when not captured.
-    distance_ranges: Vec<Vec2>,
     stats: Vec<ProbeStats>,
 }
 
@@ -515,25 +512,10 @@ pub fn capture_geometry(
     let layout = check_capture(positions, resolution)?;
     let total = positions.len() * resolution as usize;
     let done = AtomicUsize::new(0);
-    Ok(geometry_pass(
-        scene,
-        positions,
-        layout,
-        GeometryRays::CentresOnly,
-        &|| {
-            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-            progress(d, total);
-        },
-    ))
-}
-
-/// What the geometry pass casts per texel.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum GeometryRays {
-    /// One ray through the texel's centre.
-    CentresOnly,
-    /// The centre and [`RANGE_SAMPLES`]² sub-texel rays for the distance range.
-    WithRanges,
+    Ok(geometry_pass(scene, positions, layout, &|| {
+        let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+        progress(d, total);
+    }))
 }
 
 /// The nearest and farthest radial distance of probe `origin` over the sub-texel grid of
@@ -570,7 +552,6 @@ fn geometry_pass(
     scene: &Scene,
     positions: &[Vec3],
     layout: OctaLayout,
-    rays: GeometryRays,
     row_done: &(dyn Fn() + Sync),
 ) -> ProbeGeometry {
     let n = layout.resolution() as usize;
@@ -645,16 +626,11 @@ fn geometry_pass(
             }
         })
         .collect();
-    let distance_ranges = match rays {
-        GeometryRays::CentresOnly => Vec::new(),
-        GeometryRays::WithRanges => range_pass(scene, positions, layout, &distances, row_done),
-    };
     ProbeGeometry {
         positions: positions.to_vec(),
         layout,
         normals,
         distances,
-        distance_ranges,
         stats,
     }
 }
@@ -945,8 +921,7 @@ impl ProbeBake {
 /// sums run in a fixed order, so the same inputs give the same bytes whatever the number of
 /// threads. `progress` receives `(done, total)` with `total = 4 · probes · N + probes` (rows
 /// of the geometry pass, the distance ranges and the two radiance passes, then one unit per
-/// probe's derived
-/// maps); it is called from worker threads.
+/// probe's derived maps); it is called from worker threads.
 ///
 /// # Errors
 /// [`BakeError`] for invalid settings or positions (see [`BakeSettings::validate`]).
@@ -1029,7 +1004,8 @@ pub(crate) fn bake_probes(
         progress(d, total);
     };
 
-    let geometry = geometry_pass(scene, positions, layout, GeometryRays::WithRanges, &tick);
+    let geometry = geometry_pass(scene, positions, layout, &tick);
+    let distance_ranges = range_pass(scene, positions, layout, &geometry.distances, &tick);
     let (radiance, sampling) =
         radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
 
@@ -1080,7 +1056,7 @@ pub(crate) fn bake_probes(
         radiance,
         normals: geometry.normals,
         distances: geometry.distances,
-        distance_ranges: geometry.distance_ranges,
+        distance_ranges,
         pyramid_levels,
         pyramid,
         moments,

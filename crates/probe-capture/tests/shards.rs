@@ -10,6 +10,7 @@ use probe_capture::{
 };
 use probe_scene::Scene;
 use probe_scene::memory::MemoryLimit;
+use probe_testdata::folder_contents;
 use proptest::prelude::*;
 
 /// Adaptive sampling (so the second pass is sharded too), at a resolution that bakes in
@@ -75,22 +76,6 @@ fn three_shards(root: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-/// Every file of a directory, sorted by name, with its bytes.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
-    files
-}
-
 #[test]
 fn merged_shards_save_byte_for_byte_as_the_unsharded_bake() {
     let scene = cornell();
@@ -118,7 +103,10 @@ fn merged_shards_save_byte_for_byte_as_the_unsharded_bake() {
     let merged_dir = root.path().join("merged");
     merged.save(&merged_dir).unwrap();
 
-    let (a, b) = (files(&whole_dir), files(&merged_dir));
+    let (a, b) = (
+        folder_contents(&whole_dir).unwrap(),
+        folder_contents(&merged_dir).unwrap(),
+    );
     assert_eq!(
         a.iter().map(|f| &f.0).collect::<Vec<_>>(),
         b.iter().map(|f| &f.0).collect::<Vec<_>>()
@@ -221,7 +209,7 @@ fn duplicate_shards_are_refused() {
     let dirs = three_shards(root.path());
     let copy = root.path().join("copy-of-1");
     std::fs::create_dir(&copy).unwrap();
-    for (name, bytes) in files(&dirs[1]) {
+    for (name, bytes) in folder_contents(&dirs[1]).unwrap() {
         std::fs::write(copy.join(name), bytes).unwrap();
     }
     let given = [

@@ -2,6 +2,7 @@
 //! requests over `--max-memory` refused in one line before work starts, and a failed bake
 //! writing nothing over the bake already there.
 
+use probe_testdata::folder_contents;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -101,7 +102,7 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
     };
     let output = bake(&["--res", "4"]);
     assert!(output.status.success(), "{}", stderr(&output));
-    let before = folder_contents(&out);
+    let before = folder_contents(&out).unwrap();
     let output = bake(&["--res", "1024", "--max-memory", "64M"]);
     assert!(!output.status.success());
     let text = stderr(&output);
@@ -110,7 +111,7 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
         text.contains("a bake of 1 probes at 1024²") && text.contains("64.0 MiB"),
         "{text}"
     );
-    let after = folder_contents(&out);
+    let after = folder_contents(&out).unwrap();
     assert_eq!(
         after, before,
         "the refused bake changed the bake already there"
@@ -143,20 +144,4 @@ fn over_the_memory_limit_is_refused_and_nothing_is_written_over() {
         stderr(&output)
     );
     assert!(!dir.path().join("x.exr").exists());
-}
-
-/// Every file of `dir` with its bytes, sorted by name.
-fn folder_contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
-    files
 }

@@ -2,6 +2,7 @@
 //! run at once and `probes bake-merge` joins their partial bakes into the bake an unsharded
 //! run writes, byte for byte; bad shard lists are refused in one line.
 
+use probe_testdata::folder_contents;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -37,22 +38,6 @@ fn bake_args<'a>(out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     args.extend_from_slice(&["--out", out]);
     args.extend_from_slice(extra);
     args
-}
-
-/// Every file of a directory, sorted by name, with its bytes.
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
-    files
 }
 
 /// Runs the three shard bakes as concurrent processes into `root/shards/shard-K`.
@@ -101,7 +86,10 @@ fn three_shard_processes_merge_into_the_unsharded_bake_byte_for_byte() {
     assert_eq!(report["probes"], 6);
     assert_eq!(report["shards"], 3);
 
-    let (a, b) = (files(&whole), files(&merged));
+    let (a, b) = (
+        folder_contents(&whole).unwrap(),
+        folder_contents(&merged).unwrap(),
+    );
     assert_eq!(
         a.iter().map(|f| &f.0).collect::<Vec<_>>(),
         b.iter().map(|f| &f.0).collect::<Vec<_>>()
@@ -151,24 +139,11 @@ fn bad_shard_lists_are_refused_in_one_line() {
         "is the shard directory",
     );
     let other = root.path().join("other-seed");
-    let output = probes(&[
-        "bake",
-        "builtin:cornell",
-        "--probes",
-        "grid:3x1x2",
-        "--res",
-        "8",
-        "--min-spp",
-        "2",
-        "--max-spp",
-        "8",
-        "--seed",
-        "4",
-        "--shard",
-        "1/3",
-        "--out",
-        other.to_str().unwrap(),
-    ]);
+    // The shared options with the seed (their last value) 4 instead of 3.
+    let mut other_seed = bake_args(other.to_str().unwrap(), &["--shard", "1/3"]);
+    assert_eq!(other_seed[BAKE.len() - 2..BAKE.len()], ["--seed", "3"]);
+    other_seed[BAKE.len() - 1] = "4";
+    let output = probes(&other_seed);
     assert!(output.status.success(), "{}", stderr(&output));
     refused(
         &["bake-merge", o, d[0], other.to_str().unwrap(), d[2]],

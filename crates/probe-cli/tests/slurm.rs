@@ -6,7 +6,8 @@
 //! Optional: without `sbatch` or a `slurmctld` answering `scontrol ping`, the test prints why
 //! and passes without running.
 
-use std::path::{Path, PathBuf};
+use probe_testdata::folder_contents;
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -39,21 +40,6 @@ fn slurm_absent() -> Option<String> {
         return Some(format!("no Slurm node is up (sinfo states: {nodes:?})"));
     }
     None
-}
-
-fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| {
-            let e = e.unwrap();
-            (
-                e.file_name().to_string_lossy().into_owned(),
-                std::fs::read(e.path()).unwrap(),
-            )
-        })
-        .collect();
-    files.sort();
-    files
 }
 
 const OPTIONS: [&str; 11] = [
@@ -148,7 +134,10 @@ fn slurm_array_job_bakes_the_shards_and_a_dependent_job_merges_them() {
         log("merge.out")
     );
 
-    let (a, b) = (files(&whole), files(&run.join("bake")));
+    let (a, b) = (
+        folder_contents(&whole).unwrap(),
+        folder_contents(&run.join("bake")).unwrap(),
+    );
     assert_eq!(
         a.iter().map(|f| &f.0).collect::<Vec<_>>(),
         b.iter().map(|f| &f.0).collect::<Vec<_>>()

@@ -1,5 +1,7 @@
 //! Locates the shared test scenes (`../shared/scenes/` beside the workspace root) for the
-//! workspace's tests, examples and benchmarks, so that no test spells a relative path itself.
+//! workspace's tests, examples and benchmarks, so that no test spells a relative path itself;
+//! and reads a folder's files for tests that compare outputs byte for byte
+//! ([`folder_contents`]).
 //!
 //! The folder can be moved with the `PROBE_SCENES_DIR` environment variable.
 //!
@@ -8,7 +10,7 @@
 //! assert!(sponza.ends_with("sponza/Sponza_basecolor.gltf"));
 //! ```
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The classic Cornell box (32 triangles, emissive ceiling quad).
 pub const CORNELL_BOX: &str = "cornell_box/CornellBox-Original.gltf";
@@ -52,4 +54,21 @@ pub fn scene_path(relative: &str) -> PathBuf {
 /// Whether the shared scenes are present (they are in CI and beside every checkout here).
 pub fn scenes_available() -> bool {
     scene_path(CORNELL_BOX).is_file()
+}
+
+/// Every file directly in `dir` with its bytes, sorted by name: two folders hold the same
+/// files byte for byte exactly when their contents are equal.
+///
+/// # Errors
+/// Any error reading the folder or one of its files.
+pub fn folder_contents(dir: &Path) -> std::io::Result<Vec<(String, Vec<u8>)>> {
+    let mut files = std::fs::read_dir(dir)?
+        .map(|entry| {
+            let entry = entry?;
+            let bytes = std::fs::read(entry.path())?;
+            Ok((entry.file_name().to_string_lossy().into_owned(), bytes))
+        })
+        .collect::<std::io::Result<Vec<_>>>()?;
+    files.sort();
+    Ok(files)
 }

@@ -2,12 +2,14 @@
 //! naming the buffer, its size, the limit and what to lower (issue 16), instead of failing
 //! inside wgpu. The device is real (lavapipe in CI) with artificially low limits.
 
+mod support;
+
 use glam::{Vec2, Vec3};
 use probe_index::ProbeGrid;
 use probe_trace_gpu::{
-    DeviceFootprint, FieldOptions, GpuTracer, IrradianceField, LightField, ProbeSelection, Tracer,
-    UploadError,
+    DeviceFootprint, FieldOptions, GpuTracer, IrradianceField, ProbeSelection, Tracer, UploadError,
 };
+use support::Bake;
 
 /// A device whose storage bindings and buffers are at most `binding` and `buffer` bytes, or
 /// `None` (with a message) without an adapter; `PROBE_REQUIRE_GPU=1` fails instead.
@@ -41,34 +43,8 @@ fn limited_tracer(binding: u64, buffer: u64) -> Option<GpuTracer> {
     Some(GpuTracer::from_device(device, queue).expect("the tracer builds"))
 }
 
-struct Field {
-    positions: Vec<Vec3>,
-    distance: Vec<f32>,
-    normals: Vec<Vec3>,
-    radiance: Vec<Vec3>,
-}
-
-fn field(n: u32, grid: &ProbeGrid) -> Field {
-    let positions = grid.positions();
-    let len = (n as usize + 2).pow(2) * positions.len();
-    Field {
-        positions,
-        distance: vec![1.0; len],
-        normals: vec![Vec3::Y; len],
-        radiance: vec![Vec3::ONE; len],
-    }
-}
-
-fn light_field(f: &Field, n: u32) -> LightField<'_> {
-    LightField {
-        resolution: n,
-        positions: &f.positions,
-        radial_distance: &f.distance,
-        normals: &f.normals,
-        radiance: &f.radiance,
-        distance_range: None,
-        sky_distance: 100.0,
-    }
+fn field(n: u32, grid: &ProbeGrid) -> Bake {
+    Bake::flat(n, grid.positions())
 }
 
 #[test]
@@ -82,20 +58,12 @@ fn fields_over_the_device_limits_are_refused_naming_the_buffer() {
     let small = field(16, &grid);
     assert!(
         tracer
-            .upload(
-                &light_field(&small, 16),
-                &selection,
-                &FieldOptions::default()
-            )
+            .upload(&small.field(), &selection, &FieldOptions::default())
             .is_ok()
     );
     let large = field(32, &grid);
     let error = tracer
-        .upload(
-            &light_field(&large, 32),
-            &selection,
-            &FieldOptions::default(),
-        )
+        .upload(&large.field(), &selection, &FieldOptions::default())
         .unwrap_err();
     assert_eq!(
         error,
@@ -124,11 +92,7 @@ fn fields_over_the_device_limits_are_refused_naming_the_buffer() {
         return;
     };
     let error = tracer
-        .upload(
-            &light_field(&large, 32),
-            &selection,
-            &FieldOptions::default(),
-        )
+        .upload(&large.field(), &selection, &FieldOptions::default())
         .unwrap_err();
     assert!(
         matches!(

@@ -1,42 +1,23 @@
 //! Bad input gets an error naming the parameter, element or structure, never a panic.
 
+mod support;
+
 use glam::Vec3;
 use probe_index::{NearestProbe, ProbeGrid, Tetrahedralization, VoronoiNeighbours};
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, LightField, ProbeSelection, TraceError, TraceOptions, TraceRay,
     Tracer, UploadError,
 };
+use support::Bake;
 
-/// An `n×n` field of `probes` probes in a unit-cube room, analytically.
-struct Field {
-    positions: Vec<Vec3>,
-    distance: Vec<f32>,
-    normals: Vec<Vec3>,
-    radiance: Vec<Vec3>,
-}
-
-fn field(n: u32, probes: usize) -> Field {
-    let len = (n as usize + 2).pow(2);
-    Field {
-        positions: (0..probes)
+/// An `n×n` field of `probes` probes in a row, analytically.
+fn field(n: u32, probes: usize) -> Bake {
+    Bake::flat(
+        n,
+        (0..probes)
             .map(|i| Vec3::new(0.1 * i as f32, 0.0, 0.0))
             .collect(),
-        distance: vec![1.0; len * probes],
-        normals: vec![Vec3::Y; len * probes],
-        radiance: vec![Vec3::ONE; len * probes],
-    }
-}
-
-fn light_field(f: &Field, n: u32) -> LightField<'_> {
-    LightField {
-        resolution: n,
-        positions: &f.positions,
-        radial_distance: &f.distance,
-        normals: &f.normals,
-        radiance: &f.radiance,
-        distance_range: None,
-        sky_distance: 100.0,
-    }
+    )
 }
 
 fn grid_of_8() -> ProbeGrid {
@@ -53,11 +34,12 @@ fn upload(field: &LightField<'_>, selection: &ProbeSelection<'_>) -> Result<(), 
 fn upload_errors_name_what_is_wrong() {
     let f = field(16, 8);
     let grid = ProbeSelection::Grid(grid_of_8());
-    assert!(upload(&light_field(&f, 16), &grid).is_ok());
+    assert!(upload(&f.field(), &grid).is_ok());
 
     for bad in [0, 4, 12, 8192] {
-        let g = field(bad.min(16), 8);
-        let e = upload(&light_field(&g, bad), &grid).unwrap_err();
+        let mut g = field(bad.min(16), 8);
+        g.resolution = bad;
+        let e = upload(&g.field(), &grid).unwrap_err();
         assert!(
             matches!(e, UploadError::Resolution { parameter: "resolution", value, .. } if value == bad),
             "{e}"
@@ -66,7 +48,7 @@ fn upload_errors_name_what_is_wrong() {
 
     let short = LightField {
         radial_distance: &f.distance[1..],
-        ..light_field(&f, 16)
+        ..f.field()
     };
     let e = upload(&short, &grid).unwrap_err();
     assert_eq!(
@@ -81,7 +63,7 @@ fn upload_errors_name_what_is_wrong() {
 
     let mut g = field(16, 8);
     g.distance[77] = f32::NAN;
-    let e = upload(&light_field(&g, 16), &grid).unwrap_err();
+    let e = upload(&g.field(), &grid).unwrap_err();
     assert_eq!(
         e,
         UploadError::NonFinite {
@@ -92,13 +74,13 @@ fn upload_errors_name_what_is_wrong() {
     let mut g = field(16, 8);
     g.distance[5] = -1.0;
     assert!(matches!(
-        upload(&light_field(&g, 16), &grid),
+        upload(&g.field(), &grid),
         Err(UploadError::NegativeDistance { index: 5, .. })
     ));
     let mut g = field(16, 8);
     g.normals[9] = Vec3::new(f32::INFINITY, 0.0, 0.0);
     assert!(matches!(
-        upload(&light_field(&g, 16), &grid),
+        upload(&g.field(), &grid),
         Err(UploadError::NonFinite {
             parameter: "normals",
             index: 9
@@ -107,7 +89,7 @@ fn upload_errors_name_what_is_wrong() {
     let mut g = field(16, 8);
     g.positions[3] = Vec3::NAN;
     assert!(matches!(
-        upload(&light_field(&g, 16), &grid),
+        upload(&g.field(), &grid),
         Err(UploadError::NonFinite {
             parameter: "positions",
             index: 3
@@ -116,7 +98,7 @@ fn upload_errors_name_what_is_wrong() {
 
     let sky = LightField {
         sky_distance: 0.0,
-        ..light_field(&f, 16)
+        ..f.field()
     };
     assert!(matches!(
         upload(&sky, &grid),
@@ -127,7 +109,7 @@ fn upload_errors_name_what_is_wrong() {
     ));
     let e = CpuTracer::new()
         .upload(
-            &light_field(&f, 16),
+            &f.field(),
             &grid,
             &FieldOptions {
                 thickness_scale: f32::NAN,
@@ -144,17 +126,14 @@ fn upload_errors_name_what_is_wrong() {
     ));
 
     let empty = field(16, 0);
-    assert_eq!(
-        upload(&light_field(&empty, 16), &grid),
-        Err(UploadError::NoProbes)
-    );
+    assert_eq!(upload(&empty.field(), &grid), Err(UploadError::NoProbes));
 }
 
 #[test]
 fn selection_must_fit_the_probes() {
     let f = field(16, 8);
     let big = ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [3, 2, 2]).unwrap();
-    let e = upload(&light_field(&f, 16), &ProbeSelection::Grid(big)).unwrap_err();
+    let e = upload(&f.field(), &ProbeSelection::Grid(big)).unwrap_err();
     assert_eq!(
         e,
         UploadError::ProbeCountMismatch {
@@ -171,7 +150,7 @@ fn selection_must_fit_the_probes() {
     let neighbours = VoronoiNeighbours::bake(&tets, 4).unwrap();
     let nearest = NearestProbe::new(&nine);
     let e = upload(
-        &light_field(&f, 16),
+        &f.field(),
         &ProbeSelection::Voronoi {
             nearest: &nearest,
             neighbours: &neighbours,
@@ -198,7 +177,7 @@ fn trace_errors_name_the_ray_or_option() {
     let ok = [TraceRay::new(Vec3::splat(0.5), Vec3::X)];
     let field = tracer
         .upload(
-            &light_field(&f, 16),
+            &f.field(),
             &ProbeSelection::Grid(grid_of_8()),
             &FieldOptions::default(),
         )

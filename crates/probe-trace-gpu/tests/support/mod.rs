@@ -28,6 +28,22 @@ pub struct Bake {
 }
 
 impl Bake {
+    /// `resolution`² maps at `positions` in which every texel sees a surface 1 m away facing
+    /// +Y, in white, sky at 100 m: for tests of uploads and their errors, where only the sizes
+    /// and values of the maps matter.
+    pub fn flat(resolution: u32, positions: Vec<Vec3>) -> Bake {
+        let len = (resolution as usize + 2).pow(2) * positions.len();
+        Bake {
+            resolution,
+            positions,
+            distance: vec![1.0; len],
+            normals: vec![Vec3::Y; len],
+            radiance: vec![Vec3::ONE; len],
+            distance_range: Vec::new(),
+            sky_distance: 100.0,
+        }
+    }
+
     pub fn field(&self) -> LightField<'_> {
         LightField {
             resolution: self.resolution,
