@@ -12,11 +12,14 @@
 //! `SCENE` is a glTF file or `builtin:NAME`; `PROBES.json` is what `probes place --out`
 //! writes. Writes to `OUT/`: `reference.png`, and per set `LABEL.png` (probes | reference |
 //! error map, at the reference's exposure) and `LABEL_parts.png` (direct, diffuse, specular
-//! through the probes over the reference's), and prints a Markdown table.
+//! through the probes over the reference's), and prints a Markdown table. The bakes are kept
+//! in `OUT/bakes/` and reused by later runs with the same probes and resolution (`bake (s)`
+//! is then NaN), so a change to the renderer is measured on the same bakes.
 
-use probe_capture::{BakeSettings, Image, bake, no_progress, render_gbuffer};
+use probe_capture::FinalParts;
+use probe_capture::{BakeSettings, Image, ProbeBake, bake, no_progress, render_gbuffer};
 use probe_eval::final_render::{
-    DiffuseBlend, FinalOptions, PartErrors, compare_final, reference_final, render_final,
+    DiffuseBlend, FinalOptions, FinalReference, PartErrors, reference_final, render_and_compare,
 };
 use probe_eval::pipeline::{Device, build_index};
 use probe_index::ProbeGrid;
@@ -78,10 +81,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             seed,
             ..BakeSettings::default()
         };
-        let start = Instant::now();
-        let baked = bake(&scene, positions, &settings(0), &no_progress)?;
-        let bake_seconds = start.elapsed().as_secs_f64();
-        let second = bake(&scene, positions, &settings(1), &no_progress)?;
+        // Bakes are kept in OUT/bakes/ and reused by later runs (delete them to re-bake).
+        let cached = |seed: u64| -> Result<(ProbeBake, f64), Box<dyn std::error::Error>> {
+            let dir = out.join("bakes").join(format!("{label}.seed{seed}"));
+            if dir.exists() {
+                let baked = ProbeBake::load(&dir, Some(&scene))?;
+                if baked.positions() == positions.as_slice()
+                    && baked.settings().resolution == resolution
+                {
+                    return Ok((baked, f64::NAN));
+                }
+            }
+            let start = Instant::now();
+            let baked = bake(&scene, positions, &settings(seed), &no_progress)?;
+            let seconds = start.elapsed().as_secs_f64();
+            baked.save(&dir)?;
+            Ok((baked, seconds))
+        };
+        let (baked, bake_seconds) = cached(0)?;
+        let (second, _) = cached(1)?;
         eprintln!(
             "{label}: {} probes baked at {resolution}² in {bake_seconds:.1} s",
             positions.len()
@@ -96,26 +114,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             },
             ..FinalOptions::default()
         };
-        let first = render_final(&mut device, &scene, &baked, &index, &gbuffer, &options)?;
-        let other_bake = render_final(&mut device, &scene, &second, &index, &gbuffer, &options)?;
-        let other_seed = render_final(
-            &mut device,
-            &scene,
-            &baked,
-            &index,
-            &gbuffer,
-            &FinalOptions { seed: 1, ..options },
-        )?;
         if reference.is_none() {
             eprintln!("path tracing the final image at {width}×{height}, {spp} spp per part");
-            let r = reference_final(&scene, &baked, &gbuffer, spp, 0, &no_progress)?;
+            let r = cached_reference(&out, spp, || {
+                reference_final(&scene, &baked, &gbuffer, spp, 0, &no_progress)
+            })?;
             eprintln!("  {:.1} s, noise {:.2e}", r.seconds, r.noise.image);
             let truth = r.parts.sum();
             truth.save_png_with_exposure(out.join("reference.png"), truth.auto_exposure())?;
             reference = Some(r);
         }
         let reference = reference.as_ref().expect("rendered above");
-        let c = compare_final(&first, Some(&other_bake), Some(&other_seed), reference)?;
+        let (first, c) = render_and_compare(
+            &mut device,
+            &scene,
+            &baked,
+            Some(&second),
+            &index,
+            &gbuffer,
+            &options,
+            reference,
+        )?;
         let truth = reference.parts.sum();
         let exposure = truth.auto_exposure();
         let image = first.parts.sum();
@@ -179,6 +198,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{row}");
     }
     Ok(())
+}
+
+/// The reference kept in `OUT/reference/` (its parts as EXR, its noise and samples as JSON)
+/// by an earlier run with the same samples, or `render`'s, then kept.
+fn cached_reference(
+    out: &std::path::Path,
+    spp: u32,
+    render: impl FnOnce() -> Result<FinalReference, probe_eval::EvalError>,
+) -> Result<FinalReference, Box<dyn std::error::Error>> {
+    let dir = out.join("reference");
+    let meta = dir.join("reference.json");
+    if let Ok(text) = std::fs::read_to_string(&meta) {
+        let v: serde_json::Value = serde_json::from_str(&text)?;
+        if v["samples"].as_u64() == Some(u64::from(spp)) {
+            let noise = |k: &str| v["noise"][k].as_f64().unwrap_or(f64::NAN);
+            return Ok(FinalReference {
+                parts: FinalParts {
+                    direct: Image::load_exr(dir.join("direct.exr"))?,
+                    diffuse: Image::load_exr(dir.join("diffuse.exr"))?,
+                    specular: Image::load_exr(dir.join("specular.exr"))?,
+                },
+                noise: PartErrors {
+                    image: noise("image"),
+                    direct: noise("direct"),
+                    diffuse: noise("diffuse"),
+                    specular: noise("specular"),
+                },
+                samples: spp,
+                seconds: v["seconds"].as_f64().unwrap_or(f64::NAN),
+            });
+        }
+    }
+    let r = render()?;
+    std::fs::create_dir_all(&dir)?;
+    r.parts.direct.save_exr(dir.join("direct.exr"))?;
+    r.parts.diffuse.save_exr(dir.join("diffuse.exr"))?;
+    r.parts.specular.save_exr(dir.join("specular.exr"))?;
+    let json = serde_json::json!({ "samples": spp, "seconds": r.seconds, "noise": r.noise });
+    std::fs::write(&meta, serde_json::to_string_pretty(&json)?)?;
+    Ok(r)
 }
 
 /// Images side by side, each pre-scaled by its exposure (the strip is saved at exposure 1).

@@ -29,8 +29,7 @@ use probe_place::pipeline::{Method, Optimizer, PlaceOptions};
 
 use crate::convergence::ReferenceNoise;
 use crate::final_render::{
-    DiffuseBlend, FinalComparison, FinalOptions, PartErrors, ProbeFinal, compare_final,
-    reference_final, render_final,
+    DiffuseBlend, FinalComparison, FinalOptions, PartErrors, reference_final, render_and_compare,
 };
 use crate::lighting::place_lit;
 use crate::metrics::{Footprints, PixelClass, TraceMetrics, flip, flip_map_rgb8, tonemapped_mse};
@@ -702,32 +701,6 @@ fn final_images(
     let out = &options.out;
     let size = options.image_size;
     let gbuffer = probe_capture::render_gbuffer(scene, &scene.default_camera(), size, size)?;
-    let mut rendered: Vec<(ProbeFinal, ProbeFinal, ProbeFinal)> = Vec::new();
-    for (name, baked, second, index) in sets {
-        let final_options = FinalOptions {
-            blend: if index.grid.is_some() {
-                DiffuseBlend::Grid
-            } else {
-                DiffuseBlend::Delaunay
-            },
-            ..FinalOptions::default()
-        };
-        log(&format!("final image through the probes: {name}"));
-        let first = render_final(device, scene, baked, index, &gbuffer, &final_options)?;
-        let other_bake = render_final(device, scene, second, index, &gbuffer, &final_options)?;
-        let other_seed = render_final(
-            device,
-            scene,
-            baked,
-            index,
-            &gbuffer,
-            &FinalOptions {
-                seed: final_options.seed + 1,
-                ..final_options
-            },
-        )?;
-        rendered.push((first, other_bake, other_seed));
-    }
     log(&format!(
         "path tracing the final image ({} samples per pixel of each part)",
         options.final_reference_samples
@@ -757,8 +730,26 @@ fn final_images(
         files.push(png);
     }
     let mut rows = Vec::new();
-    for ((name, baked, _, index), (first, other_bake, other_seed)) in sets.iter().zip(&rendered) {
-        let comparison = compare_final(first, Some(other_bake), Some(other_seed), &reference)?;
+    for (name, baked, second, index) in sets {
+        log(&format!("final image through the probes: {name}"));
+        let final_options = FinalOptions {
+            blend: if index.grid.is_some() {
+                DiffuseBlend::Grid
+            } else {
+                DiffuseBlend::Delaunay
+            },
+            ..FinalOptions::default()
+        };
+        let (first, comparison) = render_and_compare(
+            device,
+            scene,
+            baked,
+            Some(second),
+            index,
+            &gbuffer,
+            &final_options,
+            &reference,
+        )?;
         let slug: String = name
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })

@@ -362,3 +362,42 @@ pub fn compare_final(
         times: probes.times,
     })
 }
+
+/// Renders the final image through `baked` and compares it with `reference`: the render
+/// noise from a second render with seed `options.seed + 1`, the bake noise from a render
+/// through `second` (the same probes baked with another seed), when given.
+///
+/// # Errors
+/// [`EvalError`] from [`render_final`] or [`compare_final`].
+#[allow(clippy::too_many_arguments, reason = "the whole comparison's inputs")]
+pub fn render_and_compare(
+    device: &mut Device,
+    scene: &Scene,
+    baked: &ProbeBake,
+    second: Option<&ProbeBake>,
+    index: &BuiltIndex,
+    gbuffer: &GBuffer,
+    options: &FinalOptions,
+    reference: &FinalReference,
+) -> Result<(ProbeFinal, FinalComparison), EvalError> {
+    let first = render_final(device, scene, baked, index, gbuffer, options)?;
+    let other_bake = match second {
+        Some(second) => Some(render_final(
+            device, scene, second, index, gbuffer, options,
+        )?),
+        None => None,
+    };
+    let other_seed = render_final(
+        device,
+        scene,
+        baked,
+        index,
+        gbuffer,
+        &FinalOptions {
+            seed: options.seed + 1,
+            ..*options
+        },
+    )?;
+    let comparison = compare_final(&first, other_bake.as_ref(), Some(&other_seed), reference)?;
+    Ok((first, comparison))
+}
