@@ -103,8 +103,12 @@ fn fresnel_schlick_roughness(f0: Vec3, cos: f32, roughness: f32) -> Vec3 {
 pub struct SpecularRays {
     /// The rays, ordered by pixel; `weight` holds the sample's share and its masking term.
     pub rays: Vec<EvaluationRay>,
-    /// Per ray, the Fresnel–Schlick tint at the sampled microfacet.
+    /// Per ray, the Fresnel–Schlick tint at the sampled microfacet (for
+    /// [`filtered_specular_rays`], the lobe's whole directional albedo).
     pub tints: Vec<Vec3>,
+    /// Per ray, the perceptual roughness of the lobe it samples (0 for mirrors): what a
+    /// prefiltered lookup blurs by.
+    pub roughness: Vec<f32>,
 }
 
 impl SpecularRays {
@@ -144,7 +148,7 @@ pub fn specular_rays(
     seed: u64,
 ) -> Result<SpecularRays, RenderError> {
     check_samples("rays_per_pixel", rays_per_pixel)?;
-    let per_pixel: Vec<Vec<(EvaluationRay, Vec3)>> = gbuffer
+    let per_pixel: Vec<Vec<(EvaluationRay, Vec3, f32)>> = gbuffer
         .pixels
         .par_iter()
         .enumerate()
@@ -156,6 +160,11 @@ pub fn specular_rays(
             };
             let response = SurfaceResponse::at(scene, &s);
             let (n, v) = (s.shading_normal, s.towards_camera);
+            let lobe_roughness = if response.roughness < MIRROR_ROUGHNESS {
+                0.0
+            } else {
+                response.roughness
+            };
             let mut push = |direction: Vec3, weight: f32, tint: Vec3| {
                 if weight > 0.0 && direction.dot(s.geometric_normal) > 0.0 {
                     let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
@@ -167,6 +176,7 @@ pub fn specular_rays(
                             weight,
                         },
                         tint,
+                        lobe_roughness,
                     ));
                 }
             };
@@ -200,12 +210,94 @@ pub fn specular_rays(
             rays
         })
         .collect();
+    Ok(gather(per_pixel))
+}
+
+fn gather(per_pixel: Vec<Vec<(EvaluationRay, Vec3, f32)>>) -> SpecularRays {
     let mut out = SpecularRays::default();
-    for (ray, tint) in per_pixel.into_iter().flatten() {
+    for (ray, tint, roughness) in per_pixel.into_iter().flatten() {
         out.rays.push(ray);
         out.tints.push(tint);
+        out.roughness.push(roughness);
     }
-    Ok(out)
+    out
+}
+
+/// The specular lobe's directional albedo at `n·v`: the mean of the estimator
+/// [`specular_rays`] uses (Fresnel at the sampled microfacet × Smith's masking of the
+/// reflected direction, over GGX's visible normals), by a fixed 16 × 16 quadrature; Fresnel
+/// at `n·v` for mirrors. What a prefiltered lookup multiplies its radiance by (the split-sum
+/// approximation: the lobe's radiance and its albedo taken apart).
+pub fn specular_albedo(response: &SurfaceResponse, n_dot_v: f32) -> Vec3 {
+    if response.roughness < MIRROR_ROUGHNESS {
+        return fresnel_schlick(response.f0, n_dot_v);
+    }
+    let view = Vec3::new((1.0 - n_dot_v * n_dot_v).max(0.0).sqrt(), 0.0, n_dot_v);
+    let alpha = (response.roughness * response.roughness).max(1e-4);
+    const STEPS: u32 = 16;
+    let mut sum = Vec3::ZERO;
+    for i in 0..STEPS {
+        for j in 0..STEPS {
+            let u = glam::Vec2::new(
+                (i as f32 + 0.5) / STEPS as f32,
+                (j as f32 + 0.5) / STEPS as f32,
+            );
+            let m = evaluation::sample_ggx_vndf(view, alpha, u);
+            let l = 2.0 * view.dot(m) * m - view;
+            if l.z > 0.0 {
+                sum += fresnel_schlick(response.f0, view.dot(m).max(0.0))
+                    * evaluation::smith_g1(alpha, l.z);
+            }
+        }
+    }
+    sum / (STEPS * STEPS) as f32
+}
+
+/// One specular ray per front-facing pixel for a prefiltered lookup: along the GGX lobe's
+/// dominant direction (the mirror direction pulled towards the normal as roughness grows;
+/// Lagarde and de Rousiers 2014), weight 1, tinted by the lobe's directional albedo
+/// ([`specular_albedo`]), with the lobe's roughness; the tracer reads radiance prefiltered to
+/// that roughness where the ray lands. No randomness: no noise, and a bias where the lobe
+/// straddles geometry the one ray does not see.
+pub fn filtered_specular_rays(scene: &Scene, gbuffer: &GBuffer) -> SpecularRays {
+    let per_pixel: Vec<Vec<(EvaluationRay, Vec3, f32)>> = gbuffer
+        .pixels
+        .par_iter()
+        .enumerate()
+        .with_min_len(64)
+        .map(|(pixel, sample)| {
+            let Some(s) = sample.filter(|s| !s.back_face) else {
+                return Vec::new();
+            };
+            let response = SurfaceResponse::at(scene, &s);
+            let (n, v) = (s.shading_normal, s.towards_camera);
+            let n_dot_v = n.dot(v).max(0.0);
+            let mirror = (2.0 * n_dot_v * n - v).normalize();
+            let (direction, roughness) = if response.roughness < MIRROR_ROUGHNESS {
+                (mirror, 0.0)
+            } else {
+                let alpha = response.roughness * response.roughness;
+                let smoothness = (1.0 - alpha).clamp(0.0, 1.0);
+                let pull = smoothness * (smoothness.sqrt() + alpha);
+                (n.lerp(mirror, pull).normalize(), response.roughness)
+            };
+            if direction.dot(s.geometric_normal) <= 0.0 {
+                return Vec::new();
+            }
+            let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+            vec![(
+                EvaluationRay {
+                    pixel: pixel as u32,
+                    origin: ray.origin,
+                    direction: ray.direction,
+                    weight: 1.0,
+                },
+                specular_albedo(&response, n_dot_v),
+                roughness,
+            )]
+        })
+        .collect();
+    gather(per_pixel)
 }
 
 /// The direct part of the final image: each front-facing pixel's emission plus its diffuse
@@ -403,34 +495,6 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// The specular lobe's directional albedo at `n·v` for `response`: the mean of the
-    /// estimator [`specular_rays`] uses (Fresnel at the sampled microfacet × Smith's masking of
-    /// the reflected direction over VNDF samples), by a fixed grid of samples.
-    fn specular_albedo(response: &SurfaceResponse, n_dot_v: f32) -> Vec3 {
-        let view = Vec3::new((1.0 - n_dot_v * n_dot_v).max(0.0).sqrt(), 0.0, n_dot_v);
-        if response.roughness < MIRROR_ROUGHNESS {
-            return fresnel_schlick(response.f0, n_dot_v);
-        }
-        let alpha = (response.roughness * response.roughness).max(1e-4);
-        let steps = 48;
-        let mut sum = Vec3::ZERO;
-        for i in 0..steps {
-            for j in 0..steps {
-                let u = glam::Vec2::new(
-                    (i as f32 + 0.5) / steps as f32,
-                    (j as f32 + 0.5) / steps as f32,
-                );
-                let m = evaluation::sample_ggx_vndf(view, alpha, u);
-                let l = 2.0 * view.dot(m) * m - view;
-                if l.z > 0.0 {
-                    sum += fresnel_schlick(response.f0, view.dot(m).max(0.0))
-                        * evaluation::smith_g1(alpha, l.z);
-                }
-            }
-        }
-        sum / (steps * steps) as f32
-    }
-
     proptest! {
         /// The split conserves energy: for any white material, the diffuse lobe's albedo plus
         /// the specular lobe's directional albedo is at most 1 (within the quadrature's error),
@@ -451,6 +515,33 @@ mod tests {
             prop_assert!(total.max_element() <= 1.02, "{total} at metallic {metallic}, roughness {roughness}, n·v {n_dot_v}");
             prop_assert!(response.diffuse.min_element() >= 0.0);
         }
+    }
+
+    /// The stochastic rays and the filtered ray agree in expectation: per pixel, the sum of
+    /// the stochastic rays' weight × tint (the specular lobe's albedo, estimated) is the
+    /// filtered ray's tint ([`specular_albedo`]) within Monte Carlo error.
+    #[test]
+    fn stochastic_and_filtered_specular_weights_agree() {
+        let scene = Scene::builtin("cornell").unwrap();
+        let gbuffer = crate::render_gbuffer(&scene, &scene.default_camera(), 4, 4).unwrap();
+        let stochastic = specular_rays(&scene, &gbuffer, 4096, 1).unwrap();
+        let filtered = filtered_specular_rays(&scene, &gbuffer);
+        assert!(!filtered.rays.is_empty());
+        for (ray, tint) in filtered.rays.iter().zip(&filtered.tints) {
+            let sum: Vec3 = stochastic
+                .rays
+                .iter()
+                .zip(&stochastic.tints)
+                .filter(|(r, _)| r.pixel == ray.pixel)
+                .map(|(r, t)| *t * r.weight)
+                .sum();
+            let relative = ((sum - *tint).abs() / tint.max(Vec3::splat(1e-6))).max_element();
+            assert!(relative < 0.05, "pixel {}: {sum} vs {tint}", ray.pixel);
+        }
+        assert!(
+            filtered.roughness.iter().all(|&r| r == 1.0),
+            "the box is rough"
+        );
     }
 
     #[test]

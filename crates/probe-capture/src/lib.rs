@@ -117,7 +117,8 @@ pub use evaluation::{
 };
 pub use final_image::{
     DIELECTRIC_F0, FinalParts, MIRROR_ROUGHNESS, SpecularRays, SurfaceResponse, diffuse_reference,
-    direct_image, fresnel_schlick, reference_final, specular_rays,
+    direct_image, filtered_specular_rays, fresnel_schlick, reference_final, specular_albedo,
+    specular_rays,
 };
 pub use image::{Image, ImageError};
 pub use preview::{PreviewError, PreviewPaths};
