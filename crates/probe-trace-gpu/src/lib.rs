@@ -258,7 +258,7 @@ pub use cpu::{
     CpuField, CpuIrradiance, CpuTracer, DiffuseOutput, FetchKind, FetchPhase, FetchProfile,
     PHASE_WINDOW_TEXELS, PROFILE_LEVELS, TraceOutput,
 };
-pub use error::{GpuError, TraceError, UploadError};
+pub use error::{DiffuseOptionsError, GpuError, TraceError, UploadError};
 pub use footprint::{DeviceBuffer, DeviceFootprint};
 pub use gpu::{
     DIFFUSE_ENTRY_POINT, DIFFUSE_WGSL, DiffuseBinding, DiffuseBuffers, GpuContext, GpuField,
