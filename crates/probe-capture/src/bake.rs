@@ -238,9 +238,10 @@ pub enum BakeError {
 }
 
 /// Bytes a bake holds per padded texel: radiance, normal, distance and distance range (36),
+/// the radiance without emission while the irradiance is derived (12),
 /// the min/max pyramid (at most 11), their copies while the derived maps are gathered and
 /// while the EXR layers are written (47 more), and slack for the per-thread sample sums.
-const BYTES_PER_BAKE_TEXEL: u64 = 112;
+const BYTES_PER_BAKE_TEXEL: u64 = 124;
 
 /// The memory a bake of `probes` probes with `settings` plans to use (its maps, their copies
 /// while saving, and the derived maps), in bytes: what [`bake_with_limit`] and
@@ -702,8 +703,11 @@ fn range_pass(
 ///   [`BakeSettings::moments_lobe_power`] (probe-octa's [`lobe_mean`] of `(r, r²)`, which is
 ///   [`probe_octa::distance_moments`]) at [`BakeSettings::moments_resolution`] `M`, padded
 ///   `(M+2)²` per probe;
-/// - **irradiance**: cosine-convolved radiance ([`irradiance_map`]) at
-///   [`BakeSettings::irradiance_resolution`] `K`, padded `(K+2)²` per probe;
+/// - **irradiance**: cosine-convolved *indirect* radiance ([`irradiance_map`]) at
+///   [`BakeSettings::irradiance_resolution`] `K`, padded `(K+2)²` per probe: the radiance
+///   without the emission of the surfaces the texels see, so a renderer that adds direct
+///   light with its own shadows (`probes render --component final`) counts no light source
+///   twice. The sky is kept (it has no shadow rays of its own there);
 ///
 /// (both filters read the maps reduced to [`BakeSettings::filter_source_resolution`]);
 /// - **sh**: L2 spherical harmonics of the radiance ([`ShL2Rgb::project`]; call
@@ -845,8 +849,10 @@ impl ProbeBake {
         &self.moments
     }
 
-    /// Irradiance of all probes, padded `(K+2)²` per probe (`K` =
-    /// [`BakeSettings::irradiance_resolution`]).
+    /// Indirect irradiance of all probes, padded `(K+2)²` per probe (`K` =
+    /// [`BakeSettings::irradiance_resolution`]): the irradiance of the light the surfaces
+    /// around each probe reflect, and of the sky, without the emission of the light sources
+    /// it sees (add direct light with shadow rays; see [`ProbeBake`]).
     pub fn irradiance(&self) -> &[Vec3] {
         &self.irradiance
     }
@@ -1006,8 +1012,11 @@ pub(crate) fn bake_probes(
 
     let geometry = geometry_pass(scene, positions, layout, &tick);
     let distance_ranges = range_pass(scene, positions, layout, &geometry.distances, &tick);
-    let (radiance, sampling) =
-        radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
+    let RadianceMaps {
+        radiance,
+        reflected,
+        sampling,
+    } = radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
 
     let moments_max_distance = settings
         .moments_max_distance
@@ -1021,6 +1030,7 @@ pub(crate) fn bake_probes(
                 layout,
                 &reducer,
                 &radiance[p * len..(p + 1) * len],
+                &reflected[p * len..(p + 1) * len],
                 &geometry.distances[p * len..(p + 1) * len],
                 settings,
                 moments_max_distance,
@@ -1080,6 +1090,9 @@ pub const NOISE_REPLICATES: u32 = 2;
 #[derive(Clone, Copy, Default)]
 struct TexelSums {
     sums: [Vec3; NOISE_REPLICATES as usize],
+    /// The emission of the samples' hits (the light sources the probe sees directly), summed
+    /// over all samples: what the indirect radiance leaves out.
+    emitted: Vec3,
     samples: u32,
 }
 
@@ -1113,7 +1126,11 @@ impl TexelSums {
                 origin,
                 direction: probe_octa::decode(octa),
             };
-            self.sums[replicate as usize] += shader.trace(&ray, &mut sampler).1;
+            let (hit, radiance) = shader.trace(&ray, &mut sampler);
+            self.sums[replicate as usize] += radiance;
+            if let Some(hit) = hit {
+                self.emitted += shader.emission(&hit, -ray.direction);
+            }
         }
         self.samples = self.samples.max(to);
     }
@@ -1121,6 +1138,13 @@ impl TexelSums {
     /// The mean of all samples.
     fn mean(&self) -> Vec3 {
         self.sums.iter().copied().sum::<Vec3>() / self.samples.max(1) as f32
+    }
+
+    /// The mean of all samples without the emission of their hits: the light the texel's
+    /// surfaces reflect (exactly zero where the texel sees only emitters of black albedo).
+    fn indirect_mean(&self) -> Vec3 {
+        ((self.sums.iter().copied().sum::<Vec3>() - self.emitted) / self.samples.max(1) as f32)
+            .max(Vec3::ZERO)
     }
 
     /// The estimated variance of [`Self::mean`] in tone-mapped units (mean over the three
@@ -1243,6 +1267,15 @@ fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f
     counts_for(above)
 }
 
+/// What the radiance pass gives: the radiance maps, the same maps without the emission of
+/// the surfaces the texels see (the light those surfaces reflect, the source of the
+/// indirect-only irradiance), and how each probe was sampled.
+struct RadianceMaps {
+    radiance: Vec<Vec3>,
+    reflected: Vec<Vec3>,
+    sampling: Vec<ProbeSampling>,
+}
+
 /// The radiance of `positions`, which are probes `first_probe..` of the bake's whole set: a
 /// probe's samples are keyed by its index in the whole set.
 fn radiance_pass(
@@ -1252,7 +1285,7 @@ fn radiance_pass(
     layout: OctaLayout,
     settings: &BakeSettings,
     row_done: &(dyn Fn() + Sync),
-) -> (Vec<Vec3>, Vec<ProbeSampling>) {
+) -> RadianceMaps {
     let n = layout.resolution();
     let nu = n as usize;
     let side = layout.padded_size() as usize;
@@ -1262,11 +1295,13 @@ fn radiance_pass(
         .noise_target
         .filter(|_| sampling.max_samples_per_texel > sampling.samples_per_texel);
     let mut radiance = vec![Vec3::ZERO; positions.len() * len];
+    let mut reflected = vec![Vec3::ZERO; positions.len() * len];
     let stats: Vec<ProbeSampling> = radiance
         .par_chunks_mut(len)
+        .zip(reflected.par_chunks_mut(len))
         .zip(positions.par_iter())
         .enumerate()
-        .map(|(local, (map, &origin))| {
+        .map(|(local, ((map, reflected_map), &origin))| {
             let probe = first_probe + local;
             let sample_rows = |texels: &mut [TexelSums], counts: Option<&[u32]>| {
                 texels.par_chunks_mut(nu).enumerate().for_each(|(iy, row)| {
@@ -1304,10 +1339,12 @@ fn radiance_pass(
             let mut noise = Some(0.0f64);
             for (t, texel) in texels.iter().enumerate() {
                 map[(t / nu + 1) * side + t % nu + 1] = texel.mean();
+                reflected_map[(t / nu + 1) * side + t % nu + 1] = texel.indirect_mean();
                 samples += u64::from(texel.samples);
                 noise = noise.zip(texel.noise()).map(|(a, b)| a + f64::from(b));
             }
             let _ = layout.pad(map);
+            let _ = layout.pad(reflected_map);
             ProbeSampling {
                 samples,
                 noise: noise.map(|v| (v / (nu * nu) as f64) as f32),
@@ -1315,7 +1352,11 @@ fn radiance_pass(
             }
         })
         .collect();
-    (radiance, stats)
+    RadianceMaps {
+        radiance,
+        reflected,
+        sampling: stats,
+    }
 }
 
 struct DerivedMaps {
@@ -1330,6 +1371,7 @@ fn derived_maps(
     layout: OctaLayout,
     reducer: &Reducer,
     radiance: &[Vec3],
+    reflected: &[Vec3],
     distances: &[f32],
     settings: &BakeSettings,
     moments_max_distance: f32,
@@ -1367,7 +1409,9 @@ fn derived_maps(
             "must be from 1 to 256",
         )
     })?;
-    let irradiance_source = reducer.reduce(&radiance);
+    let reflected = OctaMap::from_padded(n, reflected.to_vec())
+        .map_err(|_| invalid("resolution", n, "must be a power of two from 1 to 1024"))?;
+    let irradiance_source = reducer.reduce(&reflected);
     let irradiance =
         irradiance_map(&irradiance_source, settings.irradiance_resolution).map_err(|_| {
             invalid(
@@ -1381,7 +1425,7 @@ fn derived_maps(
         pyramid: levels,
         moments,
         irradiance,
-        sh: ShL2Rgb::project(&irradiance_source),
+        sh: ShL2Rgb::project(&reducer.reduce(&radiance)),
     })
 }
 

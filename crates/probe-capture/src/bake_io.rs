@@ -19,7 +19,7 @@ use crate::exr_io::{self, ExrLayer, ExrRead};
 use crate::shard::{Shard, ShardRecord};
 
 /// The bake format version this crate writes and the newest it reads.
-pub const BAKE_FORMAT_VERSION: u32 = 3;
+pub const BAKE_FORMAT_VERSION: u32 = 4;
 
 /// The `format` field of every bake manifest.
 const FORMAT_NAME: &str = "probe-capture bake";
@@ -119,12 +119,13 @@ pub enum BakeLoadError {
         supported: u32,
     },
     /// The bake was written in an older format than this crate reads (version 1 has no
-    /// per-probe noise estimates, version 2 no per-texel distance ranges). Fix: re-bake with
+    /// per-probe noise estimates, version 2 no per-texel distance ranges, version 3's
+    /// irradiance maps count the light sources the probes see directly). Fix: re-bake with
     /// this version.
     #[error(
         "{}: bake format version {found} is older than the supported version {supported} \
-         (version 1 records no noise estimates, version 2 no distance ranges): re-bake it \
-         with this version",
+         (version 1 records no noise estimates, version 2 no distance ranges, version 3's \
+         irradiance includes direct light): re-bake it with this version",
         path.display()
     )]
     OlderFormat {

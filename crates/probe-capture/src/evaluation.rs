@@ -158,7 +158,7 @@ pub fn render_gbuffer(
 
 /// Smith's masking for GGX with `α` at a direction whose cosine to the normal is `cos`.
 #[inline]
-fn smith_g1(alpha: f32, cos: f32) -> f32 {
+pub(crate) fn smith_g1(alpha: f32, cos: f32) -> f32 {
     let cos2 = (cos * cos).max(1e-12);
     let tan2 = (1.0 - cos2).max(0.0) / cos2;
     2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
@@ -167,7 +167,7 @@ fn smith_g1(alpha: f32, cos: f32) -> f32 {
 /// A GGX visible normal (Heitz 2018, "Sampling the GGX Distribution of Visible Normals") in
 /// the local frame where the normal is `+z`, for the local view direction `view`.
 #[inline]
-fn sample_ggx_vndf(view: Vec3, alpha: f32, u: Vec2) -> Vec3 {
+pub(crate) fn sample_ggx_vndf(view: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let vh = Vec3::new(alpha * view.x, alpha * view.y, view.z).normalize();
     let lensq = vh.x * vh.x + vh.y * vh.y;
     let t1 = if lensq > 0.0 {

@@ -95,6 +95,7 @@ mod bake_io;
 mod environment;
 mod evaluation;
 mod exr_io;
+mod final_image;
 mod image;
 mod par;
 mod preview;
@@ -114,9 +115,13 @@ pub use evaluation::{
     EvaluationRay, GBuffer, GBufferSample, ReferenceSample, Reflection, accumulate_rays,
     reflection_rays, render_gbuffer, trace_reference,
 };
+pub use final_image::{
+    DIELECTRIC_F0, FinalParts, MIRROR_ROUGHNESS, SpecularRays, SurfaceResponse, diffuse_reference,
+    direct_image, fresnel_schlick, reference_final, specular_rays,
+};
 pub use image::{Image, ImageError};
 pub use preview::{PreviewError, PreviewPaths};
-pub use render::{Component, RenderError, RenderSettings, find_camera, render};
+pub use render::{Component, RenderError, RenderSettings, find_camera, render, render_final_parts};
 pub use rng::{Rng, Sampler, SobolSampler};
 pub use shading::{RUSSIAN_ROULETTE_BOUNCES, Shader, ShaderError};
 pub use shard::{

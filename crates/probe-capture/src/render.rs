@@ -85,6 +85,18 @@ pub enum Component {
     /// roulette after [`RUSSIAN_ROULETTE_BOUNCES`](crate::RUSSIAN_ROULETTE_BOUNCES)
     /// bounces), averaged over jittered primary rays. With `bounces = 0` it is `Direct`.
     Full,
+    /// Indirect diffuse light, what `probes render --component diffuse` draws from irradiance
+    /// probes: at each pixel centre's primary hit, the base colour times the mean of the
+    /// reflected radiance ([`Shader::reflected_radiance`], light sources left out, the sky
+    /// kept) over `samples_per_pixel` cosine-distributed directions, the surfaces beyond
+    /// shaded with [`RenderSettings::bounces`] as a bake's ([`crate::diffuse_reference`]).
+    Diffuse,
+    /// The final image an engine shows (model in [`crate::FinalParts`]'s module: metallic-
+    /// roughness at the primary hit; direct light with exact shadows, indirect diffuse and
+    /// GGX specular), path traced from each pixel centre's primary hit with
+    /// `samples_per_pixel` samples of each part and [`RenderSettings::bounces`] beyond the
+    /// first indirect hit, as a bake's ([`crate::reference_final`]).
+    Final,
 }
 
 /// How to render a reference image. [`RenderSettings::new`] gives the defaults.
@@ -205,6 +217,19 @@ pub fn render(
             let radiance: Vec<Vec3> = samples.iter().map(|s| s.radiance).collect();
             accumulate_rays(width, height, &rays, &radiance)
         }
+        Component::Diffuse => {
+            let shader = Shader::new(scene, environment, settings.bounces)?;
+            let gbuffer = render_gbuffer(scene, camera, width, height)?;
+            crate::diffuse_reference(
+                &shader,
+                &gbuffer,
+                &|s| scene.materials()[s.material as usize].base_color,
+                settings.samples_per_pixel,
+                settings.seed,
+                progress,
+            )
+        }
+        Component::Final => Ok(render_final_parts(scene, camera, settings, progress)?.sum()),
         Component::Direct | Component::Full => {
             let bounces = match settings.component {
                 Component::Direct => 0,
@@ -236,4 +261,31 @@ pub fn render(
             Ok(image)
         }
     }
+}
+
+/// The path-traced final image of `camera` in its parts (direct, indirect diffuse, specular;
+/// [`crate::reference_final`]) with `settings`' size, samples, seed, environment and bounces;
+/// its component and reflection are ignored.
+///
+/// # Errors
+/// [`RenderError`] for invalid settings or environment.
+pub fn render_final_parts(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: Progress<'_>,
+) -> Result<crate::FinalParts, RenderError> {
+    settings.validate()?;
+    let environment = settings
+        .environment
+        .unwrap_or_else(|| Environment::for_scene(scene));
+    let shader = Shader::new(scene, environment, settings.bounces)?;
+    let gbuffer = render_gbuffer(scene, camera, settings.width, settings.height)?;
+    crate::reference_final(
+        &shader,
+        &gbuffer,
+        settings.samples_per_pixel,
+        settings.seed,
+        progress,
+    )
 }

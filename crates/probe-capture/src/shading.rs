@@ -326,6 +326,63 @@ impl<'s> Shader<'s> {
         radiance
     }
 
+    /// Radiance arriving along `ray` less the emission of the surface it hits: the light
+    /// that surface reflects (with the configured bounces), or the sky for a miss. This is
+    /// what a bake's irradiance maps integrate ([`ProbeBake::irradiance`]), so a renderer
+    /// adding the light sources with shadow rays of its own counts none twice.
+    ///
+    /// [`ProbeBake::irradiance`]: crate::ProbeBake::irradiance
+    pub fn reflected_radiance<S: Sampler + ?Sized>(&self, ray: &Ray, rng: &mut S) -> Vec3 {
+        match self.scene.closest_hit(ray, f32::INFINITY) {
+            Some(hit) => {
+                let towards_viewer = -ray.direction;
+                (self.outgoing_radiance(&hit, towards_viewer, rng)
+                    - self.emission(&hit, towards_viewer))
+                .max(Vec3::ZERO)
+            }
+            None => self.background(ray.direction),
+        }
+    }
+
+    /// Direct irradiance at a surface point (normals already turned to the viewer's side, as
+    /// a [`GBufferSample`](crate::GBufferSample)'s): every punctual and directional light and
+    /// the sun with one shadow ray each, plus the mean of `emitter_samples` samples of the
+    /// emissive triangles (each with its shadow ray; `triangle`, the point's own, is never
+    /// its own light). The sky is not included: the probes' irradiance holds it.
+    /// Multiply by a diffuse albedo over π for reflected radiance.
+    pub fn direct_irradiance<S: Sampler + ?Sized>(
+        &self,
+        position: Vec3,
+        geometric_normal: Vec3,
+        shading_normal: Vec3,
+        triangle: u32,
+        emitter_samples: u32,
+        rng: &mut S,
+    ) -> Vec3 {
+        let surface = Surface {
+            position,
+            geometric_normal,
+            shading_normal,
+            albedo: Vec3::ONE,
+            triangle,
+        };
+        let mut incident = Vec3::ZERO;
+        for light in self.scene.lights() {
+            incident += self.punctual(&surface, light);
+        }
+        if let Some((towards_sun, irradiance)) = self.sun {
+            incident += self.directional(&surface, towards_sun, irradiance);
+        }
+        if !self.emitters.triangles.is_empty() && emitter_samples > 0 {
+            let mut area = Vec3::ZERO;
+            for _ in 0..emitter_samples {
+                area += self.emitter_sample(&surface, false, rng);
+            }
+            incident += area / emitter_samples as f32;
+        }
+        incident
+    }
+
     /// Emitted radiance of the hit towards the viewer: the material's emission on the side it
     /// emits from, zero otherwise.
     #[inline]

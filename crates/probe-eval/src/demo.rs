@@ -28,6 +28,10 @@ use probe_index::ProbeGrid;
 use probe_place::pipeline::{Method, Optimizer, PlaceOptions};
 
 use crate::convergence::ReferenceNoise;
+use crate::final_render::{
+    DiffuseBlend, FinalComparison, FinalOptions, PartErrors, ProbeFinal, compare_final,
+    reference_final, render_final,
+};
 use crate::lighting::place_lit;
 use crate::metrics::{Footprints, PixelClass, TraceMetrics, flip, flip_map_rgb8, tonemapped_mse};
 use crate::pipeline::{
@@ -59,6 +63,8 @@ pub struct DemoOptions {
     pub reference_max_samples: u32,
     /// A region of interest both placements stay in (`None`: the whole box).
     pub region: Option<probe_place::region::Region>,
+    /// Samples per pixel of each part of the path-traced final image.
+    pub final_reference_samples: u32,
 }
 
 impl DemoOptions {
@@ -75,6 +81,7 @@ impl DemoOptions {
             reference_noise_fraction: 0.05,
             reference_max_samples: 2048,
             region: None,
+            final_reference_samples: 512,
         }
     }
 }
@@ -111,6 +118,22 @@ pub struct DemoRow {
     pub flip_image: PathBuf,
 }
 
+/// One row of the final image's table: a placement's probes against the path-traced final
+/// image.
+#[derive(Clone, Debug, Serialize)]
+pub struct FinalRow {
+    /// The placement.
+    pub placement: String,
+    /// Its probe count.
+    pub probes: usize,
+    /// How the diffuse part blends the irradiance probes.
+    pub blend: String,
+    /// Errors, noise floors, FLIP and times.
+    pub comparison: FinalComparison,
+    /// The final image (PNG).
+    pub image: PathBuf,
+}
+
 /// The demo's result.
 #[derive(Clone, Debug, Serialize)]
 pub struct DemoReport {
@@ -126,6 +149,10 @@ pub struct DemoReport {
     pub reference: ReferenceNoise,
     /// The rows.
     pub rows: Vec<DemoRow>,
+    /// The final image through each placement's probes against the path-traced one.
+    pub finals: Vec<FinalRow>,
+    /// Samples per pixel of each part of the final image's reference, and its seconds.
+    pub final_reference: (u32, f64),
     /// The files written.
     pub files: Vec<PathBuf>,
 }
@@ -224,6 +251,58 @@ impl DemoReport {
             let _ = writeln!(text);
         }
         let _ = writeln!(text, "\n{}", class_legend());
+        if !self.finals.is_empty() {
+            let _ = writeln!(
+                text,
+                "\nThe final image (direct light with exact shadows + indirect diffuse from the \
+                 irradiance probes + GGX specular through the light field; `probes render \
+                 --component final`) against the path-traced final image ({} samples per pixel \
+                 of each part, {:.1} s). Tone-mapped MSE per part, each with its noise floors \
+                 (reference / bake / render: the reference's variance, half the MSE between \
+                 two bakes with different seeds, half the MSE between two renders of one bake \
+                 with different seeds).\n",
+                self.final_reference.0, self.final_reference.1
+            );
+            let _ = writeln!(
+                text,
+                "| placement | probes | diffuse blend | final MSE | direct | diffuse | specular | FLIP | direct (ms) | diffuse (ms) | specular (ms) |"
+            );
+            let _ = writeln!(
+                text,
+                "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+            );
+            for row in &self.finals {
+                let c = &row.comparison;
+                let cell = |mse: f64, part: fn(&PartErrors) -> f64| {
+                    format!(
+                        "{mse:.2e} ({:.0e} / {} / {})",
+                        part(&c.reference_noise),
+                        c.bake_noise
+                            .as_ref()
+                            .map_or("–".to_owned(), |n| format!("{:.0e}", part(n))),
+                        c.render_noise
+                            .as_ref()
+                            .map_or("–".to_owned(), |n| format!("{:.0e}", part(n))),
+                    )
+                };
+                let t = &c.times;
+                let _ = writeln!(
+                    text,
+                    "| {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.1} | {:.1} | {:.1} |",
+                    row.placement,
+                    row.probes,
+                    row.blend,
+                    cell(c.mse.image, |p| p.image),
+                    cell(c.mse.direct, |p| p.direct),
+                    cell(c.mse.diffuse, |p| p.diffuse),
+                    cell(c.mse.specular, |p| p.specular),
+                    c.flip,
+                    t.direct_ms,
+                    t.diffuse_gpu_ms.unwrap_or(t.diffuse_ms),
+                    t.specular_gpu_ms.unwrap_or(t.specular_ms),
+                );
+            }
+        }
         let _ = writeln!(
             text,
             "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}.",
@@ -350,6 +429,8 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         index_seconds: f64,
         memory: ProbeMemory,
         baked: probe_capture::ProbeBake,
+        second: probe_capture::ProbeBake,
+        index: crate::pipeline::BuiltIndex,
     }
     let mut placed_sets: Vec<Placed> = Vec::new();
     let mut pending = Vec::new();
@@ -452,6 +533,8 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             index_seconds: index.seconds,
             memory,
             baked,
+            second,
+            index,
         });
     }
     log("refining the reference to 5 % of the smallest error");
@@ -541,6 +624,17 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             flip_image: flip_png,
         });
     }
+    let (finals, final_reference, final_files) = final_images(
+        &mut device,
+        &scene,
+        &placed_sets
+            .iter()
+            .map(|p| (p.name, &p.baked, &p.second, &p.index))
+            .collect::<Vec<_>>(),
+        options,
+        log,
+    )?;
+    files.extend(final_files);
     let top = out.join("top_view.png");
     let bounds = scene.bounds();
     write_top_view(
@@ -565,6 +659,8 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         reference_seconds: view.seconds,
         reference: view.reference_noise,
         rows,
+        finals,
+        final_reference,
         files,
     };
     let table = out.join("table.md");
@@ -580,4 +676,128 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
     report.files.push(table);
     report.files.push(json);
     Ok(report)
+}
+
+/// The final images' rows, the reference's samples and seconds, and the files written.
+type FinalSection = (Vec<FinalRow>, (u32, f64), Vec<PathBuf>);
+
+/// A placement's name, its bake, its second bake (another seed) and its index.
+type FinalSet<'a> = (
+    &'a str,
+    &'a probe_capture::ProbeBake,
+    &'a probe_capture::ProbeBake,
+    &'a crate::pipeline::BuiltIndex,
+);
+
+/// The demo's final images: each placement's probes (and a second bake, and a second render
+/// seed, for the noise floors) against the path-traced final image, with the images, the
+/// parts and error maps written.
+fn final_images(
+    device: &mut Device,
+    scene: &Scene,
+    sets: &[FinalSet<'_>],
+    options: &DemoOptions,
+    log: &dyn Fn(&str),
+) -> Result<FinalSection, EvalError> {
+    let out = &options.out;
+    let size = options.image_size;
+    let gbuffer = probe_capture::render_gbuffer(scene, &scene.default_camera(), size, size)?;
+    let mut rendered: Vec<(ProbeFinal, ProbeFinal, ProbeFinal)> = Vec::new();
+    for (name, baked, second, index) in sets {
+        let final_options = FinalOptions {
+            blend: if index.grid.is_some() {
+                DiffuseBlend::Grid
+            } else {
+                DiffuseBlend::Delaunay
+            },
+            ..FinalOptions::default()
+        };
+        log(&format!("final image through the probes: {name}"));
+        let first = render_final(device, scene, baked, index, &gbuffer, &final_options)?;
+        let other_bake = render_final(device, scene, second, index, &gbuffer, &final_options)?;
+        let other_seed = render_final(
+            device,
+            scene,
+            baked,
+            index,
+            &gbuffer,
+            &FinalOptions {
+                seed: final_options.seed + 1,
+                ..final_options
+            },
+        )?;
+        rendered.push((first, other_bake, other_seed));
+    }
+    log(&format!(
+        "path tracing the final image ({} samples per pixel of each part)",
+        options.final_reference_samples
+    ));
+    let reference = reference_final(
+        scene,
+        sets[0].1,
+        &gbuffer,
+        options.final_reference_samples,
+        0,
+        &|_, _| {},
+    )?;
+    let truth = reference.parts.sum();
+    let exposure = 0.6 / truth.mean().max_element().max(1e-6);
+    let mut files = Vec::new();
+    let reference_png = out.join("final_reference.png");
+    save_png(&truth, &reference_png, exposure)?;
+    truth.save_exr(out.join("final_reference.exr"))?;
+    files.push(reference_png);
+    for (part, image) in [
+        ("direct", &reference.parts.direct),
+        ("diffuse", &reference.parts.diffuse),
+        ("specular", &reference.parts.specular),
+    ] {
+        let png = out.join(format!("final_reference_{part}.png"));
+        save_png(image, &png, exposure)?;
+        files.push(png);
+    }
+    let mut rows = Vec::new();
+    for ((name, baked, _, index), (first, other_bake, other_seed)) in sets.iter().zip(&rendered) {
+        let comparison = compare_final(first, Some(other_bake), Some(other_seed), &reference)?;
+        let slug: String = name
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        let image = first.parts.sum();
+        let png = out.join(format!("final_{slug}.png"));
+        save_png(&image, &png, exposure)?;
+        let error_png = out.join(format!("final_error_{slug}.png"));
+        error_image(&image, &truth).save_png_with_exposure(&error_png, 1.0)?;
+        files.extend([png.clone(), error_png]);
+        for (part, part_image) in [
+            ("direct", &first.parts.direct),
+            ("diffuse", &first.parts.diffuse),
+            ("specular", &first.parts.specular),
+        ] {
+            let part_png = out.join(format!("final_{slug}_{part}.png"));
+            save_png(part_image, &part_png, exposure)?;
+            files.push(part_png);
+        }
+        log(&format!(
+            "  final {name}: MSE {:.3e} (noise: reference {:.1e}, bake {:.1e}, render {:.1e}), FLIP {:.4}",
+            comparison.mse.image,
+            comparison.reference_noise.image,
+            comparison.bake_noise.map_or(f64::NAN, |n| n.image),
+            comparison.render_noise.map_or(f64::NAN, |n| n.image),
+            comparison.flip
+        ));
+        rows.push(FinalRow {
+            placement: (*name).to_owned(),
+            probes: baked.probe_count(),
+            blend: if index.grid.is_some() {
+                "grid"
+            } else {
+                "delaunay"
+            }
+            .to_owned(),
+            comparison,
+            image: png,
+        });
+    }
+    Ok((rows, (reference.samples, reference.seconds), files))
 }

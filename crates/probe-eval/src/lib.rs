@@ -85,6 +85,7 @@ pub mod chart;
 pub mod convergence;
 pub mod demo;
 pub mod failures;
+pub mod final_render;
 pub mod lighting;
 pub mod metrics;
 pub mod pipeline;
@@ -149,6 +150,16 @@ pub enum EvalError {
         /// The configuration file, if any.
         path: Option<PathBuf>,
         /// What is wrong.
+        reason: String,
+    },
+    /// A setting asks for what the probes cannot give. Fix: as the reason says.
+    #[error("{parameter} = {value}: {reason}")]
+    InvalidSetting {
+        /// The setting.
+        parameter: &'static str,
+        /// Its value.
+        value: String,
+        /// Why it is refused, and what to use instead.
         reason: String,
     },
     /// An output file could not be written.

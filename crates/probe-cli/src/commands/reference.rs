@@ -1,5 +1,5 @@
-//! `probes reference`: the path-traced reference image (direct light, one-bounce glossy, or
-//! full global illumination).
+//! `probes reference`: the path-traced reference image (direct light, one-bounce glossy,
+//! indirect diffuse, the final image, or full global illumination).
 
 use crate::cli_error::CliError;
 use crate::output::Report;
@@ -20,6 +20,12 @@ pub enum ComponentArg {
     Glossy1,
     /// Path-traced global illumination.
     Full,
+    /// Indirect diffuse light (base colour × indirect irradiance / π, light sources left to
+    /// direct light): the truth of `probes render --component diffuse`.
+    Diffuse,
+    /// The final image (direct light with exact shadows, indirect diffuse, GGX specular with
+    /// each material's metallic-roughness): the truth of `probes render --component final`.
+    Final,
 }
 
 /// `--bounces` of `glossy1` when not given: the bake's default, so that the reference
@@ -38,6 +44,8 @@ fn component_name(component: ComponentArg) -> &'static str {
         ComponentArg::Direct => "direct",
         ComponentArg::Glossy1 => "glossy1",
         ComponentArg::Full => "full",
+        ComponentArg::Diffuse => "diffuse",
+        ComponentArg::Final => "final",
     }
 }
 
@@ -71,12 +79,13 @@ pub struct Args {
     #[arg(long, default_value_t = 360)]
     pub height: u32,
     /// Reflection lobe of the glossy component: `mirror` or `ggx:ROUGHNESS` [default:
-    /// mirror]. Refused for `direct` and `full`, which have no reflection rays.
+    /// mirror]. Refused for the other components (`final` takes each material's roughness).
     #[arg(long)]
     pub reflection: Option<String>,
     /// Extra diffuse bounces after direct light (0 = direct light only), as in `probes bake`:
-    /// of the radiance the glossy rays pick up (`glossy1`, default 1 like the bake), or of the
-    /// paths from the primary hit (`full`, default 64). Refused for `direct`.
+    /// of the radiance the glossy, diffuse and final images' secondary rays pick up
+    /// (`glossy1`, `diffuse`, `final`: default 1 like the bake), or of the paths from the
+    /// primary hit (`full`, default 64). Refused for `direct`.
     #[arg(long)]
     pub bounces: Option<u32>,
     /// Seed of every random choice.
@@ -106,7 +115,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         value,
         reason: format!(
             "`--component {}` does not use it (only `glossy1` takes `--reflection`; `glossy1` \
-             and `full` take `--bounces`); drop it or pick another component",
+             `diffuse`, `final` and `full` take `--bounces`); drop it or pick another component",
             component_name(args.component)
         ),
     };
@@ -121,9 +130,14 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             settings.reflection = reflection(args.reflection.as_deref().unwrap_or("mirror"))?;
         }
         ComponentArg::Full => settings.bounces = args.bounces.unwrap_or(DEFAULT_FULL_BOUNCES),
+        ComponentArg::Diffuse | ComponentArg::Final => {
+            settings.bounces = args.bounces.unwrap_or(DEFAULT_GLOSSY_BOUNCES);
+        }
     }
-    if let (ComponentArg::Direct | ComponentArg::Full, Some(text)) =
-        (args.component, &args.reflection)
+    if let (
+        ComponentArg::Direct | ComponentArg::Full | ComponentArg::Diffuse | ComponentArg::Final,
+        Some(text),
+    ) = (args.component, &args.reflection)
     {
         return Err(refuse("--reflection", text.clone()));
     }
@@ -131,6 +145,8 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         ComponentArg::Direct => Component::Direct,
         ComponentArg::Glossy1 => Component::Glossy1,
         ComponentArg::Full => Component::Full,
+        ComponentArg::Diffuse => Component::Diffuse,
+        ComponentArg::Final => Component::Final,
     };
     let bounces = match args.component {
         ComponentArg::Direct => 0,

@@ -9,6 +9,7 @@ use crate::spec::{MemoryArgs, camera, open_scene_with_limit, warnings_json};
 use glam::Vec3;
 use probe_capture::Image;
 use probe_capture::{ProbeBake, accumulate_rays, reflection_rays, render_gbuffer};
+use probe_eval::final_render::{DiffuseBlend, FinalOptions, ProbeFinal, render_final};
 use probe_eval::pipeline::{Device, Selection, Tracer, build_index, light_field};
 use probe_index::ProbeGrid;
 use probe_trace_gpu::{DiffuseOptions, Interpolation, ShadingPoint, TraceRay, TraceSummary};
@@ -43,8 +44,13 @@ pub enum SelectArg {
 pub enum ComponentArg {
     /// One-bounce indirect glossy: reflection rays traced through the light-field probes.
     Glossy1,
-    /// Diffuse: albedo/π × irradiance probes blended with Chebyshev visibility.
+    /// Diffuse: albedo/π × irradiance probes blended with Chebyshev visibility (indirect
+    /// light: the bake's irradiance leaves the light sources out).
     Diffuse,
+    /// The final image: emission and direct light with exact shadows, indirect diffuse from
+    /// the irradiance probes, GGX specular (each material's roughness and metallic) through
+    /// the light-field probes. Written as EXR and PNG.
+    Final,
 }
 
 /// Arguments of `probes render`.
@@ -76,9 +82,16 @@ pub struct Args {
     /// GGX roughness of the reflection lobe; 0 for mirrors.
     #[arg(long, default_value_t = 0.0)]
     pub roughness: f32,
-    /// Reflection rays per pixel.
+    /// Reflection rays per pixel (`final`: specular rays per pixel of rough materials).
     #[arg(long, default_value_t = 1)]
     pub rays_per_pixel: u32,
+    /// Emitter samples per pixel of the direct light of `final` (shadow rays to area lights).
+    #[arg(long, default_value_t = 16)]
+    pub emitter_samples: u32,
+    /// With `final`: also write the parts (direct, diffuse, specular) beside `--out`, as
+    /// `NAME.direct.exr` and `.png`, and so on.
+    #[arg(long)]
+    pub split: bool,
     /// Depth of the sparse voxel octree (for `--select svo`).
     #[arg(long, default_value_t = 7)]
     pub svo_depth: u32,
@@ -99,7 +112,7 @@ pub struct Args {
     /// The EXR image to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Also write a tone-mapped PNG.
+    /// Also write a tone-mapped PNG (`final` writes one beside `--out` without it).
     #[arg(long)]
     pub png: Option<PathBuf>,
     /// The memory limit.
@@ -117,6 +130,13 @@ const WARM_UP_ITEMS: usize = 256;
 
 /// Renders and reports.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
+    if args.split && args.component != ComponentArg::Final {
+        return Err(CliError::InvalidArgument {
+            parameter: "--split",
+            value: String::new(),
+            reason: "only `--component final` has parts to split".into(),
+        });
+    }
     let limit = args.memory.limit();
     let pixels = u64::from(args.width) * u64::from(args.height);
     limit.check(
@@ -175,7 +195,51 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         "height": args.height,
         "probes": baked.probe_count(),
     });
-    let image = if args.component == ComponentArg::Glossy1 {
+    let mut parts = None;
+    let image = if args.component == ComponentArg::Final {
+        let rendered = final_component(args, &scene, &baked, &gbuffer, grid, &mut device)?;
+        let map = json.as_object_mut().expect("an object");
+        let t = rendered.times;
+        let summary = rendered.specular;
+        for (key, value) in [
+            ("component", json!("final")),
+            (
+                "interpolation",
+                json!(if args.select == SelectArg::Grid {
+                    "grid"
+                } else {
+                    "delaunay"
+                }),
+            ),
+            ("shading_points", json!(rendered.shading_points)),
+            ("rays", json!(summary.rays)),
+            (
+                "hit_rate",
+                json!(summary.hits as f64 / summary.rays.max(1) as f64),
+            ),
+            (
+                "miss_rate",
+                json!(summary.misses as f64 / summary.rays.max(1) as f64),
+            ),
+            (
+                "unknown_rate",
+                json!(summary.unknown as f64 / summary.rays.max(1) as f64),
+            ),
+            ("fetches_per_ray", json!(summary.fetches_per_ray)),
+            ("probes_per_ray", json!(summary.probes_per_ray)),
+            ("direct_ms", json!(t.direct_ms)),
+            ("shade_wall_ms", json!(t.diffuse_ms)),
+            ("shade_gpu_ms", json!(t.diffuse_gpu_ms)),
+            ("trace_wall_ms", json!(t.specular_ms)),
+            ("trace_gpu_ms", json!(t.specular_gpu_ms)),
+            ("first_dispatch_ms", json!(t.first_dispatch_ms)),
+        ] {
+            map.insert(key.into(), value);
+        }
+        let image = rendered.parts.sum();
+        parts = Some(rendered.parts);
+        image
+    } else if args.component == ComponentArg::Glossy1 {
         let reflection = if args.roughness > 0.0 {
             probe_capture::Reflection::Ggx {
                 roughness: args.roughness,
@@ -327,17 +391,74 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     };
     progress.finish_and_clear();
     image.save_exr(&args.out)?;
-    if let Some(png) = &args.png {
+    let png = args.png.clone().or_else(|| {
+        (args.component == ComponentArg::Final).then(|| args.out.with_extension("png"))
+    });
+    if let Some(png) = &png {
         image.save_png(png)?;
+    }
+    let mut written_parts = Vec::new();
+    if let Some(parts) = parts.filter(|_| args.split) {
+        for (name, part) in [
+            ("direct", &parts.direct),
+            ("diffuse", &parts.diffuse),
+            ("specular", &parts.specular),
+        ] {
+            let exr = args.out.with_extension(format!("{name}.exr"));
+            part.save_exr(&exr)?;
+            part.save_png(exr.with_extension("png"))?;
+            written_parts.push(exr.display().to_string());
+        }
     }
     let map = json.as_object_mut().expect("an object");
     map.insert("seconds".into(), json!(start.elapsed().as_secs_f64()));
     map.insert("out".into(), json!(args.out.display().to_string()));
     map.insert(
         "png".into(),
-        json!(args.png.as_ref().map(|p| p.display().to_string())),
+        json!(png.as_ref().map(|p| p.display().to_string())),
     );
+    map.insert("parts".into(), json!(written_parts));
     Ok(Box::new(RenderSummary { json }))
+}
+
+/// The final image through the probes (probe-eval's [`render_final`]).
+fn final_component(
+    args: &Args,
+    scene: &probe_scene::Scene,
+    baked: &ProbeBake,
+    gbuffer: &probe_capture::GBuffer,
+    grid: Option<ProbeGrid>,
+    device: &mut Device,
+) -> Result<ProbeFinal, CliError> {
+    let (selection, blend) = match args.select {
+        SelectArg::Grid => (Selection::Grid, DiffuseBlend::Grid),
+        SelectArg::Svo => (Selection::Svo, DiffuseBlend::Delaunay),
+        SelectArg::Voronoi => (Selection::Voronoi, DiffuseBlend::Delaunay),
+    };
+    if selection == Selection::Grid && grid.is_none() {
+        return Err(CliError::InvalidArgument {
+            parameter: "--select",
+            value: "grid".into(),
+            reason: "the bake's probes are not a regular grid; use svo or voronoi".into(),
+        });
+    }
+    let index = build_index(scene, baked.positions(), args.svo_depth, grid, args.seed)?;
+    let options = FinalOptions {
+        tracer: match args.tracer {
+            TracerArg::Hiz => Tracer::HiZ,
+            TracerArg::TwoLevel => Tracer::TwoLevel,
+            TracerArg::Hybrid => Tracer::Hybrid,
+        },
+        selection,
+        blend,
+        specular_rays_per_pixel: args.rays_per_pixel,
+        emitter_samples: args.emitter_samples,
+        seed: args.seed,
+        ..FinalOptions::default()
+    };
+    Ok(render_final(
+        device, scene, baked, &index, gbuffer, &options,
+    )?)
 }
 
 fn index_tetrahedra(baked: &ProbeBake) -> Result<probe_index::Tetrahedralization, CliError> {
@@ -386,6 +507,11 @@ impl Report for RenderSummary {
                 j["interpolation"].as_str().unwrap_or("?"),
                 number("shade_wall_ms").unwrap_or(0.0),
                 number("shade_gpu_ms").map_or(String::new(), |ms| format!(", {ms:.2} ms GPU")),
+            ));
+        }
+        if let Some(ms) = number("direct_ms") {
+            text.push_str(&format!(
+                "direct light (exact shadow rays on the CPU) {ms:.1} ms\n"
             ));
         }
         if let Some(ms) = number("first_dispatch_ms") {
