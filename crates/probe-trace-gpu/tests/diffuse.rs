@@ -285,11 +285,11 @@ fn diffuse_errors_name_the_problem() {
             other => panic!("{name}: {other:?}"),
         }
     }
-    let parsed: DiffuseOptions = "normal-bias=0.1, exponent=2,backface=off".parse().unwrap();
+    let parsed: DiffuseOptions = "normal-bias=0.3, exponent=2,backface=off".parse().unwrap();
     assert_eq!(
         parsed,
         DiffuseOptions {
-            normal_bias: 0.1,
+            normal_bias: 0.3,
             visibility_exponent: 2.0,
             backface: false,
             ..DiffuseOptions::default()

@@ -24,6 +24,13 @@ const WIDE: f32 = 2e-3;
 /// The same for a narrow pair: 1024× less (about 8 f32 steps at these coordinates).
 const NARROW: f32 = WIDE / 1024.0;
 
+/// What f32 rounding may change of the blend, relative to the irradiance spread. Outside the
+/// hull, near a hull edge or corner, the nearest point is chosen by comparing squared
+/// distances that differ by the square of how far apart the candidates are, so rounding of
+/// `d²` moves the weights by up to about `√ε_f32 · d / edge` (≈ 2.4e-4 · 2.5 m / 1 m here).
+/// The jumps this test exists for are hundreds of times larger (0.11 for the clamped walk).
+const ROUNDING: f32 = 1e-3;
+
 /// The thinnest tetrahedron (smallest vertex-to-face height) a probe set may have, in metres.
 const MIN_HEIGHT: f32 = 0.01;
 
@@ -146,7 +153,7 @@ proptest! {
             let wide = (four[0].irradiance - four[1].irradiance).abs().max_element();
             let narrow = (four[2].irradiance - four[3].irradiance).abs().max_element();
             prop_assert!(
-                narrow <= wide / 16.0 + 1e-4 * spread,
+                narrow <= wide / 16.0 + ROUNDING * spread,
                 "pair {} at {:?}: |Δ| {} at ε = {} and {} at ε = {} ({} vs {})",
                 k,
                 pairs[4 * k + 2].position,

@@ -90,17 +90,19 @@ fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, bool) {
 /// projection), among the hull triangles `x` lies beyond. A triangle holding `x`'s projection
 /// onto its plane holds the nearest point (the hull lies behind that plane) and ends the
 /// search; otherwise the nearest edge or corner point wins (ranking distances there, not
-/// everywhere, keeps f32 rounding from choosing between nearly coplanar triangles). `None`
-/// when `x` lies beyond no triangle (rounding at the hull).
+/// everywhere, keeps f32 rounding from choosing between nearly coplanar triangles). `start`
+/// (probes, weights, squared distance) is the best candidate yet: the nearest point of the
+/// face the walk left by, which prunes most triangles by their plane alone.
 fn hull_weights(
     ir: &PackedIrradiance,
     params: &DiffuseParams,
     x: Vec3,
+    start: ([u32; 3], Vec3, f32),
 ) -> Option<([u32; 3], Vec3)> {
     let word = |at: usize| f32::from_bits(ir.words[at]);
     let corner = |at: usize| Vec3::new(word(at), word(at + 1), word(at + 2));
-    let mut best = 3.4e38f32;
-    let mut found = None;
+    let mut best = start.2;
+    let mut found = (best < 3.4e38).then_some((start.0, start.1));
     for h in 0..params.hull_count as usize {
         let at = params.hull as usize + h * HULL_WORDS;
         // Beyond the face's plane, and the plane (a lower bound) not clearly farther than the
@@ -130,8 +132,13 @@ fn sharpen(visibility: f32, exponent: f32) -> f32 {
         1.0
     } else if visibility <= 0.0 {
         0.0
-    } else if exponent == 3.0 {
-        visibility * visibility * visibility
+    } else if exponent == exponent.floor() && exponent <= 16.0 {
+        // Whole exponents (the defaults) by multiplication, as the shader does.
+        let mut p = visibility;
+        for _ in 1..exponent as u32 {
+            p *= visibility;
+        }
+        p
     } else {
         visibility.powf(exponent)
     }
@@ -179,8 +186,30 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
             }
             let next = current.neighbours[worst];
             if next == NO_NEIGHBOUR {
-                // Beyond a hull face's plane: outside the (convex) hull.
-                if let Some((hull_probes, l)) = hull_weights(ir, params, x) {
+                // Beyond a hull face's plane: outside the (convex) hull. Most often x's
+                // projection onto that face lies inside it: then it is the nearest hull point,
+                // and the search over the hull is not needed.
+                let mut k = 0;
+                let mut corners = [Vec3::ZERO; 3];
+                for i in 0..4 {
+                    if i != worst {
+                        probes[k] = current.vertices[i];
+                        corners[k] = Vec3::from_slice(&ir.positions[probes[k] as usize][..3]);
+                        k += 1;
+                    }
+                }
+                let (l, inside) = closest_on_triangle(x, corners[0], corners[1], corners[2]);
+                if inside {
+                    w[..3].copy_from_slice(&l.to_array());
+                    return (probes, w);
+                }
+                // Else its nearest edge or corner point starts the search (and prunes it).
+                let e = x
+                    - corners[0]
+                    - (corners[1] - corners[0]) * l.y
+                    - (corners[2] - corners[0]) * l.z;
+                let start = ([probes[0], probes[1], probes[2]], l, e.dot(e));
+                if let Some((hull_probes, l)) = hull_weights(ir, params, x, start) {
                     probes[..3].copy_from_slice(&hull_probes);
                     w[..3].copy_from_slice(&l.to_array());
                     return (probes, w);

@@ -114,8 +114,13 @@ fn sharpen(visibility: f32, exponent: f32) -> f32 {
     if (visibility <= 0.0) {
         return 0.0;
     }
-    if (exponent == 3.0) {
-        return visibility * visibility * visibility;
+    // Whole exponents (the defaults) by multiplication, the same on the CPU twin.
+    if (exponent == floor(exponent) && exponent <= 16.0) {
+        var p = visibility;
+        for (var i = 1u; i < u32(exponent); i++) {
+            p *= visibility;
+        }
+        return p;
     }
     return pow(visibility, exponent);
 }
@@ -192,9 +197,10 @@ fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -
 // the nearest edge or corner point wins (ranking distances there, not everywhere, keeps f32
 // rounding from choosing between nearly coplanar triangles). False when x lies beyond none
 // (rounding at the hull).
-fn hull_weights(x: vec3<f32>, out: ptr<function, Weights>) -> bool {
-    var best = 3.4e38;
-    var found = false;
+// `out` and `nearest` (its squared distance) hold the best candidate yet.
+fn hull_weights(x: vec3<f32>, out: ptr<function, Weights>, nearest: f32) -> bool {
+    var best = nearest;
+    var found = nearest < 3.4e38;
     for (var h = 0u; h < params.hull_count; h++) {
         let at = params.hull + h * HULL_WORDS;
         let plane = hull_vec4(at + 12u);
@@ -266,7 +272,28 @@ fn interpolation_weights(x: vec3<f32>) -> Weights {
                 out.probes[i] = 0u;
                 out.w[i] = 0.0;
             }
-            if (hull_weights(x, &out)) {
+            // Most often x's projection onto that face lies inside it: then it is the nearest
+            // hull point, and the search over the hull is not needed.
+            var k = 0u;
+            var corners: array<vec3<f32>, 3>;
+            for (var i = 0u; i < 4u; i++) {
+                if (i != worst) {
+                    out.probes[k] = words[params.tets + tet * TET_WORDS + i];
+                    corners[k] = positions[out.probes[k]].xyz;
+                    k++;
+                }
+            }
+            let face = closest_on_triangle(x, corners[0], corners[1], corners[2]);
+            out.w[0] = face.x;
+            out.w[1] = face.y;
+            out.w[2] = face.z;
+            if (face.w == 1.0) {
+                return out;
+            }
+            // Else its nearest edge or corner point starts the search (and prunes it).
+            let e = x - corners[0] - (corners[1] - corners[0]) * face.y
+                - (corners[2] - corners[0]) * face.z;
+            if (hull_weights(x, &out, dot(e, e))) {
                 return out;
             }
             break;
