@@ -225,3 +225,25 @@ pub enum TraceError {
         message: String,
     },
 }
+
+/// Text that is not a valid [`crate::DiffuseOptions`] (`key=value,...`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum DiffuseOptionsError {
+    /// An item without `=`. Fix: write `key=value`.
+    #[error("`{0}` is not key=value")]
+    NotKeyValue(String),
+    /// A key the options do not have. Fix: use `visibility`, `normal-bias`, `exponent`,
+    /// `min-weight` or `backface`.
+    #[error(
+        "unknown diffuse option `{0}` (visibility, normal-bias, exponent, min-weight, backface)"
+    )]
+    UnknownKey(String),
+    /// A value that does not parse. Fix: a number, or `on`/`off` for the switches.
+    #[error("diffuse option `{key}`: `{value}` is not a valid value (a number, or on/off)")]
+    BadValue {
+        /// The key.
+        key: String,
+        /// The value given.
+        value: String,
+    },
+}

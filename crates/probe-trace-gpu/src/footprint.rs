@@ -4,7 +4,7 @@
 
 use crate::error::UploadError;
 use crate::input::{Interpolation, ProbeSelection};
-use crate::packed::{NEAREST_ROW, TET_WORDS, padded_len};
+use crate::packed::{HULL_WORDS, NEAREST_ROW, TET_WORDS, padded_len};
 
 /// One storage buffer the GPU tracer creates for an uploaded field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,7 +132,8 @@ impl DeviceFootprint {
         let words = match interpolation {
             None | Some(Interpolation::Grid(_)) => 1,
             Some(Interpolation::Delaunay(tets)) => {
-                (tets.tetrahedra().len() * TET_WORDS) as u64 + 5 * p
+                (tets.tetrahedra().len() * TET_WORDS + tets.hull_faces().len() * HULL_WORDS) as u64
+                    + 5 * p
             }
         };
         DeviceFootprint {

@@ -174,10 +174,12 @@
 //! its texels around the point. An escaped ray takes the sky from a candidate that sees sky
 //! in its direction. No march: about 12 fetches a query.
 //!
-//! **Diffuse** (seed 001): trilinear grid or Delaunay barycentric weights times, optionally,
-//! the cubed Chebyshev weight of the probe's distance moments seen from the shading point
-//! (moved along its normal by `normal_bias`), normalised; irradiance maps are sampled
-//! bilinearly through their padding.
+//! **Diffuse** (seed 001, DDGI): trilinear grid or Delaunay barycentric weights (outside the
+//! probes' convex hull, those of the nearest hull point, so the blend stays continuous there)
+//! times, optionally, DDGI's smooth backface term and the Chebyshev weight of the probe's
+//! distance moments seen from the shading point (moved along its normal by `normal_bias`)
+//! raised to `visibility_exponent` and floored at `min_weight`, normalised; irradiance maps
+//! are sampled bilinearly through their padding. See [`DiffuseOptions`].
 //!
 //! # What a texel fetch is
 //!
@@ -258,7 +260,7 @@ pub use cpu::{
     CpuField, CpuIrradiance, CpuTracer, DiffuseOutput, FetchKind, FetchPhase, FetchProfile,
     PHASE_WINDOW_TEXELS, PROFILE_LEVELS, TraceOutput,
 };
-pub use error::{GpuError, TraceError, UploadError};
+pub use error::{DiffuseOptionsError, GpuError, TraceError, UploadError};
 pub use footprint::{DeviceBuffer, DeviceFootprint};
 pub use gpu::{
     DIFFUSE_ENTRY_POINT, DIFFUSE_WGSL, DiffuseBinding, DiffuseBuffers, GpuContext, GpuField,

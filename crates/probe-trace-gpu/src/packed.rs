@@ -785,14 +785,22 @@ pub(crate) struct PackedIrradiance {
     pub moments: Vec<[f32; 2]>,
     pub kind: u32,
     pub grid: GridParams,
-    /// Tetrahedra (20 words each), then a tetrahedron per probe, then k-d tree nodes.
+    /// Tetrahedra (20 words each), then a tetrahedron per probe, then k-d tree nodes, then
+    /// the convex hull's triangles ([`HULL_WORDS`] each).
     pub words: Vec<u32>,
     pub tets: u32,
     pub tet_count: u32,
     pub vertex_tets: u32,
     pub kd_nodes: u32,
     pub kd_count: u32,
+    pub hull: u32,
+    pub hull_count: u32,
 }
+
+/// Words per convex-hull triangle in [`PackedIrradiance::words`]: the corners `a, b, c` as
+/// `vec4(position, bitcast<f32>(probe))`, then the outward plane `vec4(normal, offset)` with
+/// `dot(normal, x) > offset` beyond the face.
+pub(crate) const HULL_WORDS: usize = 16;
 
 /// Largest irradiance or moment map resolution accepted.
 const MAX_LOW_RESOLUTION: u32 = 256;
@@ -857,6 +865,8 @@ impl PackedIrradiance {
             vertex_tets: 0,
             kd_nodes: 0,
             kd_count: 0,
+            hull: 0,
+            hull_count: 0,
         };
         match interpolation {
             Interpolation::Grid(grid) => {
@@ -899,6 +909,39 @@ impl PackedIrradiance {
                     probes,
                 )?;
                 packed.kd_count = nearest.nodes().len() as u32;
+                let hull = tets.hull_faces();
+                check_addressable(
+                    "interpolation",
+                    (packed.words.len() + hull.len() * HULL_WORDS) as u64,
+                    4,
+                )?;
+                packed.hull = packed.words.len() as u32;
+                packed.hull_count = hull.len() as u32;
+                for face in hull {
+                    for &v in &face.vertices {
+                        if v as usize >= probes {
+                            return Err(UploadError::ProbeOutOfRange {
+                                selection: "tetrahedralization",
+                                probe: v,
+                                probe_count: probes,
+                            });
+                        }
+                    }
+                    let corners = face.vertices.map(|v| field.positions[v as usize]);
+                    for (&v, c) in face.vertices.iter().zip(&corners) {
+                        packed
+                            .words
+                            .extend([c.x.to_bits(), c.y.to_bits(), c.z.to_bits(), v]);
+                    }
+                    // Counter-clockwise seen from outside: the normal points out.
+                    let normal = (corners[1] - corners[0])
+                        .cross(corners[2] - corners[0])
+                        .normalize_or_zero();
+                    let offset = normal.dot(corners[0]);
+                    packed
+                        .words
+                        .extend([normal.x, normal.y, normal.z, offset].map(f32::to_bits));
+                }
             }
         }
         if packed.words.is_empty() {
@@ -955,14 +998,18 @@ pub(crate) struct DiffuseParams {
     pub visibility: u32,
     pub max_walk_steps: u32,
     pub normal_bias: f32,
-    pub pad0: [u32; 3],
+    pub hull: u32,
+    pub hull_count: u32,
+    pub visibility_exponent: f32,
     pub grid: GridParams,
     pub tets: u32,
     pub tet_count: u32,
     pub vertex_tets: u32,
     pub kd_nodes: u32,
     pub kd_count: u32,
-    pub pad1: [u32; 3],
+    pub min_weight: f32,
+    pub backface: u32,
+    pub pad1: u32,
 }
 
 /// Method codes shared with the WGSL.
@@ -1161,6 +1208,22 @@ pub(crate) fn diffuse_params(
             requirement: "it must be finite and >= 0",
         });
     }
+    if !(options.visibility_exponent.is_finite()
+        && (0.0..=16.0).contains(&options.visibility_exponent))
+    {
+        return Err(crate::error::TraceError::BadOption {
+            option: "visibility_exponent",
+            value: f64::from(options.visibility_exponent),
+            requirement: "it must be from 0 to 16",
+        });
+    }
+    if !(options.min_weight.is_finite() && options.min_weight > 0.0 && options.min_weight <= 1.0) {
+        return Err(crate::error::TraceError::BadOption {
+            option: "min_weight",
+            value: f64::from(options.min_weight),
+            requirement: "it must be above 0 and at most 1",
+        });
+    }
     Ok(DiffuseParams {
         point_count: 0,
         threads_per_row: 0,
@@ -1173,14 +1236,18 @@ pub(crate) fn diffuse_params(
         // guards against cycling on degenerate (cospherical) configurations.
         max_walk_steps: 1024,
         normal_bias: options.normal_bias,
-        pad0: [0; 3],
+        hull: irradiance.hull,
+        hull_count: irradiance.hull_count,
+        visibility_exponent: options.visibility_exponent,
         grid: irradiance.grid,
         tets: irradiance.tets,
         tet_count: irradiance.tet_count,
         vertex_tets: irradiance.vertex_tets,
         kd_nodes: irradiance.kd_nodes,
         kd_count: irradiance.kd_count,
-        pad1: [0; 3],
+        min_weight: options.min_weight,
+        backface: u32::from(options.backface),
+        pad1: 0,
     })
 }
 

@@ -55,8 +55,11 @@ fn interpolation_reproduces_linear_fields() {
             ShadingPoint::new(x, Vec3::new(next() - 0.5, 0.3, next() - 0.5))
         })
         .collect();
+    // The backface term reweights probes by direction, which no longer reproduces linear
+    // fields: it is off here.
     let options = DiffuseOptions {
         visibility: false,
+        backface: false,
         ..DiffuseOptions::default()
     };
     for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
@@ -261,6 +264,46 @@ fn diffuse_errors_name_the_problem() {
             ..
         })
     ));
+    for (options, name) in [
+        (
+            DiffuseOptions {
+                visibility_exponent: f32::NAN,
+                ..DiffuseOptions::default()
+            },
+            "visibility_exponent",
+        ),
+        (
+            DiffuseOptions {
+                min_weight: 0.0,
+                ..DiffuseOptions::default()
+            },
+            "min_weight",
+        ),
+    ] {
+        match tracer.shade_diffuse(&uploaded, &points, &options) {
+            Err(TraceError::BadOption { option, .. }) => assert_eq!(option, name),
+            other => panic!("{name}: {other:?}"),
+        }
+    }
+    let parsed: DiffuseOptions = "normal-bias=0.3, exponent=2,backface=off".parse().unwrap();
+    assert_eq!(
+        parsed,
+        DiffuseOptions {
+            normal_bias: 0.3,
+            visibility_exponent: 2.0,
+            backface: false,
+            ..DiffuseOptions::default()
+        }
+    );
+    for (text, needle) in [
+        ("exponent", "not key=value"),
+        ("sharpness=2", "unknown diffuse option `sharpness`"),
+        ("backface=maybe", "`maybe` is not a valid value"),
+        ("min-weight=x", "`x` is not a valid value"),
+    ] {
+        let error = text.parse::<DiffuseOptions>().unwrap_err().to_string();
+        assert!(error.contains(needle), "{text}: {error}");
+    }
     let short = IrradianceField {
         irradiance: &irradiance[1..],
         ..field

@@ -189,8 +189,8 @@ fn repeated_calls_reuse_and_grow_buffers() {
     ));
 }
 
-/// Diffuse shading on the GPU equals the CPU twin, grid and Delaunay, with and without
-/// visibility.
+/// Diffuse shading on the GPU equals the CPU twin, grid and Delaunay (inside the hull and
+/// projected onto it), with and without visibility and the backface term, at two exponents.
 #[test]
 fn gpu_diffuse_matches_cpu() {
     let Some(mut gpu) = gpu_tracer() else { return };
@@ -206,20 +206,35 @@ fn gpu_diffuse_matches_cpu() {
     let bake = mini_capture(&scene, &positions, 16, 100.0, &shade);
     let low = LowRes::of(&bake);
     let tets = Tetrahedralization::build(&positions).unwrap();
-    let points: Vec<ShadingPoint> = (0..400)
+    // Floor points (outside the probes' hull: the hull projection) and points at every
+    // height with turning normals (inside it: the walk).
+    let points: Vec<ShadingPoint> = (0..800)
         .map(|i| {
             let x = -3.9 + 7.8 * ((i * 37) % 400) as f32 / 400.0;
             let z = -1.9 + 3.8 * ((i * 91) % 400) as f32 / 400.0;
-            ShadingPoint::new(Vec3::new(x, 0.0, z), Vec3::Y)
+            if i < 400 {
+                ShadingPoint::new(Vec3::new(x, 0.0, z), Vec3::Y)
+            } else {
+                let y = 2.9 * ((i * 53) % 400) as f32 / 400.0;
+                let a = i as f32 * 0.7;
+                ShadingPoint::new(Vec3::new(x, y, z), Vec3::new(a.cos(), 0.4, a.sin()))
+            }
         })
         .collect();
     let mut cpu = CpuTracer::new();
     for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
         let gpu_irradiance = gpu.upload_irradiance(&low.field(), &interpolation).unwrap();
         let cpu_irradiance = cpu.upload_irradiance(&low.field(), &interpolation).unwrap();
-        for visibility in [false, true] {
+        for (visibility, exponent, backface) in [
+            (false, 3.0, false),
+            (false, 3.0, true),
+            (true, 3.0, true),
+            (true, 1.5, false),
+        ] {
             let options = DiffuseOptions {
                 visibility,
+                visibility_exponent: exponent,
+                backface,
                 ..DiffuseOptions::default()
             };
             let g = gpu
@@ -238,7 +253,7 @@ fn gpu_diffuse_matches_cpu() {
                 .count();
             assert!(
                 close as f64 >= 0.999 * points.len() as f64,
-                "visibility {visibility}: {close}"
+                "visibility {visibility}, exponent {exponent}, backface {backface}: {close}"
             );
         }
     }

@@ -98,6 +98,11 @@ pub struct Args {
     /// Seed of the reflection rays.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Diffuse shading options as `key=value,...` (`visibility`, `normal-bias`, `exponent`,
+    /// `min-weight`, `backface`; see `probe_trace_gpu::DiffuseOptions`); unnamed keys keep
+    /// their defaults.
+    #[arg(long, default_value = "")]
+    pub diffuse_options: DiffuseOptions,
     /// Fail instead of falling back to the CPU twin when no GPU adapter exists.
     #[arg(long)]
     pub require_gpu: bool,
@@ -342,7 +347,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         // As for the trace: the first dispatch compiles the pipeline (2 s on lavapipe with a
         // cold shader cache against 0.15 s of shading for 120,800 points), so it is timed
         // apart and the shading on the second.
-        let options = DiffuseOptions::default();
+        let options = args.diffuse_options;
         let first_start = Instant::now();
         device.shade_diffuse(
             &irradiance,

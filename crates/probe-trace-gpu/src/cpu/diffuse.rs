@@ -4,7 +4,9 @@
 use glam::{UVec3, Vec2, Vec3};
 use probe_index::{NO_NEIGHBOUR, TetRecord};
 
-use crate::packed::{DiffuseParams, INTERPOLATE_GRID, PackedIrradiance, TET_WORDS, padded_index};
+use crate::packed::{
+    DiffuseParams, HULL_WORDS, INTERPOLATE_GRID, PackedIrradiance, TET_WORDS, padded_index,
+};
 use crate::ray::{DiffuseResult, ShadingPoint};
 
 /// Bilinear sample of a padded octahedral map at `direction`, exactly as
@@ -37,6 +39,109 @@ fn sample_bilinear<const K: usize>(
         out[k] = v;
     }
     out
+}
+
+/// Barycentric coordinates of the point of triangle `abc` nearest to `p` (Ericson, Real-Time
+/// Collision Detection §5.1.5), and whether that point is `p`'s projection onto the
+/// triangle's plane (inside the triangle) rather than on an edge or a corner.
+fn closest_on_triangle(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> (Vec3, bool) {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = ab.dot(ap);
+    let d2 = ac.dot(ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (Vec3::X, false);
+    }
+    let bp = p - b;
+    let d3 = ab.dot(bp);
+    let d4 = ac.dot(bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (Vec3::Y, false);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (Vec3::new(1.0 - v, v, 0.0), false);
+    }
+    let cp = p - c;
+    let d5 = ab.dot(cp);
+    let d6 = ac.dot(cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (Vec3::Z, false);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (Vec3::new(1.0 - w, 0.0, w), false);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (Vec3::new(0.0, 1.0 - w, w), false);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let v = vb * denom;
+    let w = vc * denom;
+    (Vec3::new(1.0 - v - w, v, w), true)
+}
+
+/// Outside the hull: the probes and weights of the nearest point on the hull (a continuous
+/// projection), among the hull triangles `x` lies beyond. A triangle holding `x`'s projection
+/// onto its plane holds the nearest point (the hull lies behind that plane) and ends the
+/// search; otherwise the nearest edge or corner point wins (ranking distances there, not
+/// everywhere, keeps f32 rounding from choosing between nearly coplanar triangles). `start`
+/// (probes, weights, squared distance) is the best candidate yet: the nearest point of the
+/// face the walk left by, which prunes most triangles by their plane alone.
+fn hull_weights(
+    ir: &PackedIrradiance,
+    params: &DiffuseParams,
+    x: Vec3,
+    start: ([u32; 3], Vec3, f32),
+) -> Option<([u32; 3], Vec3)> {
+    let word = |at: usize| f32::from_bits(ir.words[at]);
+    let corner = |at: usize| Vec3::new(word(at), word(at + 1), word(at + 2));
+    let mut best = start.2;
+    let mut found = (best < 3.4e38).then_some((start.0, start.1));
+    for h in 0..params.hull_count as usize {
+        let at = params.hull as usize + h * HULL_WORDS;
+        // Beyond the face's plane, and the plane (a lower bound) not clearly farther than the
+        // best yet (the margin keeps a near tie for the projection test below).
+        let above = corner(at + 12).dot(x) - word(at + 15);
+        if above <= 0.0 || above * above > best * 1.001 {
+            continue;
+        }
+        let (a, b, c) = (corner(at), corner(at + 4), corner(at + 8));
+        let (l, inside) = closest_on_triangle(x, a, b, c);
+        let e = x - a - (b - a) * l.y - (c - a) * l.z;
+        let d = e.dot(e);
+        if inside || d < best {
+            best = d;
+            found = Some(([ir.words[at + 3], ir.words[at + 7], ir.words[at + 11]], l));
+            if inside {
+                break;
+            }
+        }
+    }
+    found
+}
+
+/// `visibility^exponent`, with `0^0 = 1` and `0^k = 0`, as `gpu/diffuse.wgsl` computes it.
+fn sharpen(visibility: f32, exponent: f32) -> f32 {
+    if exponent == 0.0 {
+        1.0
+    } else if visibility <= 0.0 {
+        0.0
+    } else if exponent == exponent.floor() && exponent <= 16.0 {
+        // Whole exponents (the defaults) by multiplication, as the shader does.
+        let mut p = visibility;
+        for _ in 1..exponent as u32 {
+            p *= visibility;
+        }
+        p
+    } else {
+        visibility.powf(exponent)
+    }
 }
 
 /// Probes and interpolation weights at `x`.
@@ -81,6 +186,34 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
             }
             let next = current.neighbours[worst];
             if next == NO_NEIGHBOUR {
+                // Beyond a hull face's plane: outside the (convex) hull. Most often x's
+                // projection onto that face lies inside it: then it is the nearest hull point,
+                // and the search over the hull is not needed.
+                let mut k = 0;
+                let mut corners = [Vec3::ZERO; 3];
+                for i in 0..4 {
+                    if i != worst {
+                        probes[k] = current.vertices[i];
+                        corners[k] = Vec3::from_slice(&ir.positions[probes[k] as usize][..3]);
+                        k += 1;
+                    }
+                }
+                let (l, inside) = closest_on_triangle(x, corners[0], corners[1], corners[2]);
+                if inside {
+                    w[..3].copy_from_slice(&l.to_array());
+                    return (probes, w);
+                }
+                // Else its nearest edge or corner point starts the search (and prunes it).
+                let e = x
+                    - corners[0]
+                    - (corners[1] - corners[0]) * l.y
+                    - (corners[2] - corners[0]) * l.z;
+                let start = ([probes[0], probes[1], probes[2]], l, e.dot(e));
+                if let Some((hull_probes, l)) = hull_weights(ir, params, x, start) {
+                    probes[..3].copy_from_slice(&hull_probes);
+                    w[..3].copy_from_slice(&l.to_array());
+                    return (probes, w);
+                }
                 break;
             }
             tet = next;
@@ -114,14 +247,25 @@ pub(super) fn shade(
             continue;
         }
         let mut weight = interpolation;
+        let p = Vec3::from_slice(&ir.positions[probe as usize][..3]);
+        if params.backface != 0 {
+            let to_probe = p - x;
+            let length = to_probe.length();
+            let facing = if length > 0.0 {
+                (to_probe / length).dot(n)
+            } else {
+                0.0
+            };
+            let f = (facing + 1.0) * 0.5;
+            weight *= f * f + 0.2;
+        }
         if params.visibility != 0 {
-            let p = Vec3::from_slice(&ir.positions[probe as usize][..3]);
             let v = x + n * params.normal_bias - p;
             let distance = v.length();
             let direction = if distance > 0.0 { v / distance } else { n };
             let m = sample_bilinear(&ir.moments, params.moments_resolution, probe, direction);
             let visibility = probe_octa::chebyshev_visibility(Vec2::from(m), distance);
-            weight *= visibility * visibility * visibility;
+            weight *= sharpen(visibility, params.visibility_exponent).max(params.min_weight);
         }
         let e = Vec3::from(sample_bilinear(
             irradiance,

@@ -4,6 +4,7 @@
 const INTERPOLATE_GRID: u32 = 0u;
 const NO_NEIGHBOUR: u32 = 0xffffffffu;
 const TET_WORDS: u32 = 20u;
+const HULL_WORDS: u32 = 16u;
 
 // src/packed.rs DiffuseParams (112 bytes).
 struct DiffuseParams {
@@ -16,18 +17,18 @@ struct DiffuseParams {
     visibility: u32,
     max_walk_steps: u32,
     normal_bias: f32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    hull: u32,
+    hull_count: u32,
+    visibility_exponent: f32,
     grid: GridParams,
     tets: u32,
     tet_count: u32,
     vertex_tets: u32,
     kd_nodes: u32,
     kd_count: u32,
-    pad3: u32,
-    pad4: u32,
-    pad5: u32,
+    min_weight: f32,
+    backface: u32,
+    pad1: u32,
 }
 
 // src/ray.rs ShadingPoint (32 bytes).
@@ -46,7 +47,7 @@ struct ShadingPoint {
 // 3 floats per padded texel.
 @group(0) @binding(4) var<storage, read> irradiance: array<f32>;
 @group(0) @binding(5) var<storage, read> moments: array<vec2<f32>>;
-// Tetrahedra, a tetrahedron per probe, k-d tree nodes.
+// Tetrahedra, a tetrahedron per probe, k-d tree nodes, convex-hull triangles.
 @group(0) @binding(6) var<storage, read> words: array<u32>;
 
 // Bilinear taps of a padded octahedral map (probe_octa::OctaMap::sample): the index of the
@@ -105,6 +106,25 @@ fn chebyshev(m: vec2<f32>, distance: f32) -> f32 {
     return clamp(variance / (variance + excess * excess), 0.0, 1.0);
 }
 
+// visibility^exponent, with 0^0 = 1 and 0^k = 0.
+fn sharpen(visibility: f32, exponent: f32) -> f32 {
+    if (exponent == 0.0) {
+        return 1.0;
+    }
+    if (visibility <= 0.0) {
+        return 0.0;
+    }
+    // Whole exponents (the defaults) by multiplication, the same on the CPU twin.
+    if (exponent == floor(exponent) && exponent <= 16.0) {
+        var p = visibility;
+        for (var i = 1u; i < u32(exponent); i++) {
+            p *= visibility;
+        }
+        return p;
+    }
+    return pow(visibility, exponent);
+}
+
 struct Weights {
     probes: array<u32, 8>,
     w: array<f32, 8>,
@@ -119,6 +139,98 @@ fn tet_barycentric(t: u32, x: vec3<f32>) -> vec4<f32> {
             + bitcast<f32>(words[b + 2u]) * x.z + bitcast<f32>(words[b + 3u]);
     }
     return vec4<f32>(l[0], l[1], l[2], 1.0 - l[0] - l[1] - l[2]);
+}
+
+fn hull_vec4(at: u32) -> vec4<f32> {
+    return vec4<f32>(bitcast<f32>(words[at]), bitcast<f32>(words[at + 1u]),
+        bitcast<f32>(words[at + 2u]), bitcast<f32>(words[at + 3u]));
+}
+
+// Barycentric coordinates of the point of triangle abc nearest to p (Ericson, Real-Time
+// Collision Detection §5.1.5), and w = 1 where that point is p's projection onto the
+// triangle's plane (inside the triangle), 0 where it is on an edge or a corner.
+fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> vec4<f32> {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        return vec4<f32>(1.0, 0.0, 0.0, 0.0);
+    }
+    let bp = p - b;
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) {
+        return vec4<f32>(0.0, 1.0, 0.0, 0.0);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+        let v = d1 / (d1 - d3);
+        return vec4<f32>(1.0 - v, v, 0.0, 0.0);
+    }
+    let cp = p - c;
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) {
+        return vec4<f32>(0.0, 0.0, 1.0, 0.0);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+        let w = d2 / (d2 - d6);
+        return vec4<f32>(1.0 - w, 0.0, w, 0.0);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return vec4<f32>(0.0, 1.0 - w, w, 0.0);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let v = vb * denom;
+    let w = vc * denom;
+    return vec4<f32>(1.0 - v - w, v, w, 1.0);
+}
+
+// Outside the hull: the weights of the nearest point on the hull (a continuous projection),
+// among the hull triangles x lies beyond. A triangle holding x's projection onto its plane
+// holds the nearest point (the hull lies behind that plane) and ends the search; otherwise
+// the nearest edge or corner point wins (ranking distances there, not everywhere, keeps f32
+// rounding from choosing between nearly coplanar triangles). False when x lies beyond none
+// (rounding at the hull).
+// `out` and `nearest` (its squared distance) hold the best candidate yet.
+fn hull_weights(x: vec3<f32>, out: ptr<function, Weights>, nearest: f32) -> bool {
+    var best = nearest;
+    var found = nearest < 3.4e38;
+    for (var h = 0u; h < params.hull_count; h++) {
+        let at = params.hull + h * HULL_WORDS;
+        let plane = hull_vec4(at + 12u);
+        // Beyond the face's plane, and the plane (a lower bound) not clearly farther than the
+        // best yet (the margin keeps a near tie for the projection test below).
+        let above = dot(plane.xyz, x) - plane.w;
+        if (above <= 0.0 || above * above > best * 1.001) {
+            continue;
+        }
+        let a = hull_vec4(at);
+        let b = hull_vec4(at + 4u);
+        let c = hull_vec4(at + 8u);
+        let l = closest_on_triangle(x, a.xyz, b.xyz, c.xyz);
+        let e = x - a.xyz - (b.xyz - a.xyz) * l.y - (c.xyz - a.xyz) * l.z;
+        let d = dot(e, e);
+        if (l.w == 1.0 || d < best) {
+            best = d;
+            found = true;
+            (*out).probes[0] = words[at + 3u];
+            (*out).probes[1] = words[at + 7u];
+            (*out).probes[2] = words[at + 11u];
+            (*out).w[0] = l.x;
+            (*out).w[1] = l.y;
+            (*out).w[2] = l.z;
+            if (l.w == 1.0) {
+                break;
+            }
+        }
+    }
+    return found;
 }
 
 fn interpolation_weights(x: vec3<f32>) -> Weights {
@@ -155,6 +267,35 @@ fn interpolation_weights(x: vec3<f32>) -> Weights {
         }
         let next = words[params.tets + tet * TET_WORDS + 4u + worst];
         if (next == NO_NEIGHBOUR) {
+            // Beyond a hull face's plane: outside the (convex) hull.
+            for (var i = 0u; i < 8u; i++) {
+                out.probes[i] = 0u;
+                out.w[i] = 0.0;
+            }
+            // Most often x's projection onto that face lies inside it: then it is the nearest
+            // hull point, and the search over the hull is not needed.
+            var k = 0u;
+            var corners: array<vec3<f32>, 3>;
+            for (var i = 0u; i < 4u; i++) {
+                if (i != worst) {
+                    out.probes[k] = words[params.tets + tet * TET_WORDS + i];
+                    corners[k] = positions[out.probes[k]].xyz;
+                    k++;
+                }
+            }
+            let face = closest_on_triangle(x, corners[0], corners[1], corners[2]);
+            out.w[0] = face.x;
+            out.w[1] = face.y;
+            out.w[2] = face.z;
+            if (face.w == 1.0) {
+                return out;
+            }
+            // Else its nearest edge or corner point starts the search (and prunes it).
+            let e = x - corners[0] - (corners[1] - corners[0]) * face.y
+                - (corners[2] - corners[0]) * face.z;
+            if (hull_weights(x, &out, dot(e, e))) {
+                return out;
+            }
             break;
         }
         tet = next;
@@ -190,15 +331,26 @@ fn shade(point: ShadingPoint) -> vec4<f32> {
         }
         let probe = weights.probes[i];
         var weight = interpolation;
+        let p = positions[probe].xyz;
+        if (params.backface != 0u) {
+            let to_probe = p - x;
+            let length_to_probe = length(to_probe);
+            var facing = 0.0;
+            if (length_to_probe > 0.0) {
+                facing = dot(to_probe / length_to_probe, n);
+            }
+            let f = (facing + 1.0) * 0.5;
+            weight *= f * f + 0.2;
+        }
         if (params.visibility != 0u) {
-            let v = x + n * params.normal_bias - positions[probe].xyz;
+            let v = x + n * params.normal_bias - p;
             let distance = length(v);
             var direction = n;
             if (distance > 0.0) {
                 direction = v / distance;
             }
             let visibility = chebyshev(sample_moments(probe, direction), distance);
-            weight *= visibility * visibility * visibility;
+            weight *= max(sharpen(visibility, params.visibility_exponent), params.min_weight);
         }
         sum += sample_irradiance(probe, n) * weight;
         weight_sum += weight;

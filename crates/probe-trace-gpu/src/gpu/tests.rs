@@ -193,12 +193,20 @@ fn shared_structs_match_the_wgsl_layout() {
             ("visibility", offset_of!(DiffuseParams, visibility)),
             ("max_walk_steps", offset_of!(DiffuseParams, max_walk_steps)),
             ("normal_bias", offset_of!(DiffuseParams, normal_bias)),
+            ("hull", offset_of!(DiffuseParams, hull)),
+            ("hull_count", offset_of!(DiffuseParams, hull_count)),
+            (
+                "visibility_exponent",
+                offset_of!(DiffuseParams, visibility_exponent),
+            ),
             ("grid", offset_of!(DiffuseParams, grid)),
             ("tets", offset_of!(DiffuseParams, tets)),
             ("tet_count", offset_of!(DiffuseParams, tet_count)),
             ("vertex_tets", offset_of!(DiffuseParams, vertex_tets)),
             ("kd_nodes", offset_of!(DiffuseParams, kd_nodes)),
             ("kd_count", offset_of!(DiffuseParams, kd_count)),
+            ("min_weight", offset_of!(DiffuseParams, min_weight)),
+            ("backface", offset_of!(DiffuseParams, backface)),
         ],
     );
 }
