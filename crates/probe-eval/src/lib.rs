@@ -85,6 +85,7 @@ pub mod chart;
 pub mod convergence;
 pub mod demo;
 pub mod failures;
+pub mod glossy;
 pub mod lighting;
 pub mod metrics;
 pub mod pipeline;
