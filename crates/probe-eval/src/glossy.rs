@@ -130,9 +130,13 @@ mod tests {
         for roughness in [0.1, 0.3, 0.6] {
             let filtered = filtered_reflection_rays(&gbuffer, roughness).unwrap();
             let sampled = reflection_rays(&gbuffer, Reflection::Ggx { roughness }, 256, 3).unwrap();
-            let total = |rays: &[EvaluationRay]| rays.iter().map(|r| f64::from(r.weight)).sum::<f64>();
+            let total =
+                |rays: &[EvaluationRay]| rays.iter().map(|r| f64::from(r.weight)).sum::<f64>();
             let (a, b) = (total(&filtered), total(&sampled));
-            assert!((a - b).abs() < 0.01 * b, "roughness {roughness}: {a} vs {b}");
+            assert!(
+                (a - b).abs() < 0.01 * b,
+                "roughness {roughness}: {a} vs {b}"
+            );
         }
         assert!(filtered_reflection_rays(&gbuffer, 0.0).is_err());
         assert!((ggx_albedo(0.01, 0.7) - 1.0).abs() < 1e-3);

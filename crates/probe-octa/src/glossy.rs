@@ -284,9 +284,12 @@ mod tests {
             let (mut sum, mut total) = (T::zero(), 0.0f32);
             for iy in 0..n {
                 for ix in 0..n {
-                    if let Some(w) =
-                        ggx_weight(d_o, layout.texel_direction(ix, iy), alpha * alpha, cos_limit)
-                    {
+                    if let Some(w) = ggx_weight(
+                        d_o,
+                        layout.texel_direction(ix, iy),
+                        alpha * alpha,
+                        cos_limit,
+                    ) {
                         let w = w * omega[(iy * n + ix) as usize];
                         sum = sum.add_scaled(source.texels()[layout.interior_index(ix, iy)], w);
                         total += w;
@@ -332,7 +335,10 @@ mod tests {
         let constant = OctaMap::filled(32, Vec3::new(0.25, 2.0, 7.0)).unwrap();
         for level in glossy_pyramid(&constant, 8).unwrap() {
             for t in level.texels() {
-                assert!((*t - Vec3::new(0.25, 2.0, 7.0)).abs().max_element() < 1e-4, "{t}");
+                assert!(
+                    (*t - Vec3::new(0.25, 2.0, 7.0)).abs().max_element() < 1e-4,
+                    "{t}"
+                );
             }
         }
         let map = OctaMap::from_fn(64, smooth).unwrap();

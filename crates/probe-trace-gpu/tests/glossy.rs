@@ -63,13 +63,24 @@ fn gpu_matches_cpu_ray_by_ray() {
         .upload(&bake.field(), &selection, &glossy_options(5))
         .unwrap();
     for roughness in ROUGHNESS {
-        let g = gpu.trace(&gpu_field, &rays, &rough(roughness)).unwrap().results;
-        let c = cpu.trace(&cpu_field, &rays, &rough(roughness)).unwrap().results;
+        let g = gpu
+            .trace(&gpu_field, &rays, &rough(roughness))
+            .unwrap()
+            .results;
+        let c = cpu
+            .trace(&cpu_field, &rays, &rough(roughness))
+            .unwrap()
+            .results;
         let (mut same, mut radiance_close, mut fetches) = (0, 0, 0);
         for (a, b) in g.iter().zip(&c) {
             if a.status == b.status && a.probe == b.probe {
                 same += 1;
-                let scale = a.radiance.abs().max(b.radiance.abs()).max_element().max(1e-3);
+                let scale = a
+                    .radiance
+                    .abs()
+                    .max(b.radiance.abs())
+                    .max_element()
+                    .max(1e-3);
                 if (a.radiance - b.radiance).abs().max_element() <= 1e-4 * scale {
                     radiance_close += 1;
                 }
@@ -81,7 +92,10 @@ fn gpu_matches_cpu_ray_by_ray() {
             "roughness {roughness}: same answer {same}/{n}, radiance within 1e-4 {radiance_close}/{same}, equal fetches {fetches}/{n}"
         );
         assert!(same as f64 >= 0.999 * n as f64, "{same} of {n}");
-        assert!(radiance_close as f64 >= 0.999 * same as f64, "{radiance_close} of {same}");
+        assert!(
+            radiance_close as f64 >= 0.999 * same as f64,
+            "{radiance_close} of {same}"
+        );
         assert!(fetches as f64 >= 0.999 * n as f64, "{fetches} of {n}");
     }
 }
@@ -125,7 +139,11 @@ fn constant_radiance_is_kept() {
     let grid = ProbeGrid::new(Vec3::splat(-0.5), Vec3::ONE, [2, 2, 2]).unwrap();
     let mut cpu = CpuTracer::new();
     let field = cpu
-        .upload(&bake.field(), &ProbeSelection::Grid(grid), &glossy_options(3))
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &glossy_options(3),
+        )
         .unwrap();
     let rays: Vec<TraceRay> = (0..64)
         .map(|i| {
@@ -144,7 +162,11 @@ fn constant_radiance_is_kept() {
             .collect();
         assert!(answered.len() > 32);
         for r in answered {
-            assert!((r.radiance - colour).abs().max_element() < 1e-4, "{}", r.radiance);
+            assert!(
+                (r.radiance - colour).abs().max_element() < 1e-4,
+                "{}",
+                r.radiance
+            );
         }
     }
 }

@@ -1049,7 +1049,7 @@ impl Tracer for GpuTracer {
                 options.glossy_levels,
                 Some(selection),
             )
-                .check(&self.limits)?;
+            .check(&self.limits)?;
         }
         let mut meta = PackedField::new(field, options)?;
         let selection = PackedSelection::new(selection, field.positions)?;
