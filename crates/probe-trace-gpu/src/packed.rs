@@ -133,8 +133,13 @@ fn pack_glossy(
             pyramids[probe] = pyramid;
         }
     });
-    for k in 1..=levels as usize {
-        offsets[k] = (radiance.len() / 3) as u32;
+    for (k, offset) in offsets
+        .iter_mut()
+        .enumerate()
+        .take(levels as usize + 1)
+        .skip(1)
+    {
+        *offset = (radiance.len() / 3) as u32;
         let side = padded_len(n >> k);
         for pyramid in &pyramids {
             match pyramid.get(k - 1) {
