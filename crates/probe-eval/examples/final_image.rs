@@ -10,16 +10,18 @@
 //! ```
 //!
 //! `SCENE` is a glTF file or `builtin:NAME`; `PROBES.json` is what `probes place --out`
-//! writes. Writes to `OUT/`: `reference.png`, and per set `LABEL.png` (probes | reference |
-//! error map, at the reference's exposure) and `LABEL_parts.png` (direct, diffuse, specular
-//! through the probes over the reference's), and prints a Markdown table. The bakes are kept
+//! writes. Each set is rendered with filtered and with stochastic specular rays (one per
+//! pixel). Writes to `OUT/`: `reference.png`, and per set and mode `LABEL_MODE.png` (probes |
+//! reference | error map, at the reference's exposure) and `LABEL_MODE_parts.png` (direct,
+//! diffuse, specular through the probes, then the reference's), and prints a Markdown table. The bakes are kept
 //! in `OUT/bakes/` and reused by later runs with the same probes and resolution (`bake (s)`
 //! is then NaN), so a change to the renderer is measured on the same bakes.
 
 use probe_capture::FinalParts;
 use probe_capture::{BakeSettings, Image, ProbeBake, bake, no_progress, render_gbuffer};
 use probe_eval::final_render::{
-    DiffuseBlend, FinalOptions, FinalReference, PartErrors, reference_final, render_and_compare,
+    DiffuseBlend, FinalOptions, FinalReference, PartErrors, SpecularMode, reference_final,
+    render_and_compare, specular_name,
 };
 use probe_eval::pipeline::{Device, build_index};
 use probe_index::ProbeGrid;
@@ -106,14 +108,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
         let grid = ProbeGrid::detect(baked.positions());
         let index = build_index(&scene, baked.positions(), 7, grid, 0)?;
-        let options = FinalOptions {
-            blend: if grid.is_some() {
-                DiffuseBlend::Grid
-            } else {
-                DiffuseBlend::Delaunay
-            },
-            ..FinalOptions::default()
-        };
         if reference.is_none() {
             eprintln!("path tracing the final image at {width}×{height}, {spp} spp per part");
             let r = cached_reference(&out, spp, || {
@@ -125,48 +119,59 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reference = Some(r);
         }
         let reference = reference.as_ref().expect("rendered above");
-        let (first, c) = render_and_compare(
-            &mut device,
-            &scene,
-            &baked,
-            Some(&second),
-            &index,
-            &gbuffer,
-            &options,
-            reference,
-        )?;
-        let truth = reference.parts.sum();
-        let exposure = truth.auto_exposure();
-        let image = first.parts.sum();
-        strip(
-            &[&image, &truth, &error_map(&image, &truth)],
-            &[exposure, exposure, 1.0],
-        )
-        .save_png_with_exposure(out.join(format!("{label}.png")), 1.0)?;
-        strip(
-            &[
-                &first.parts.direct,
-                &first.parts.diffuse,
-                &first.parts.specular,
-                &reference.parts.direct,
-                &reference.parts.diffuse,
-                &reference.parts.specular,
-            ],
-            &[exposure; 6],
-        )
-        .save_png_with_exposure(out.join(format!("{label}_parts.png")), 1.0)?;
-        let cell = |part: fn(&PartErrors) -> f64| {
-            format!(
-                "{:.2e} ({:.0e} / {:.0e} / {:.0e})",
-                part(&c.mse),
-                part(&c.reference_noise),
-                c.bake_noise.as_ref().map_or(f64::NAN, part),
-                c.render_noise.as_ref().map_or(f64::NAN, part),
+        for specular in [SpecularMode::Filtered, SpecularMode::Stochastic] {
+            let mode = specular_name(specular);
+            let options = FinalOptions {
+                blend: if grid.is_some() {
+                    DiffuseBlend::Grid
+                } else {
+                    DiffuseBlend::Delaunay
+                },
+                specular,
+                ..FinalOptions::default()
+            };
+            let (first, c) = render_and_compare(
+                &mut device,
+                &scene,
+                &baked,
+                Some(&second),
+                &index,
+                &gbuffer,
+                &options,
+                reference,
+            )?;
+            let truth = reference.parts.sum();
+            let exposure = truth.auto_exposure();
+            let image = first.parts.sum();
+            strip(
+                &[&image, &truth, &error_map(&image, &truth)],
+                &[exposure, exposure, 1.0],
             )
-        };
-        let t = c.times;
-        rows.push(format!(
-            "| {label} | {} | {} | {} | {} | {} | {} | {:.4} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            .save_png_with_exposure(out.join(format!("{label}_{mode}.png")), 1.0)?;
+            strip(
+                &[
+                    &first.parts.direct,
+                    &first.parts.diffuse,
+                    &first.parts.specular,
+                    &reference.parts.direct,
+                    &reference.parts.diffuse,
+                    &reference.parts.specular,
+                ],
+                &[exposure; 6],
+            )
+            .save_png_with_exposure(out.join(format!("{label}_{mode}_parts.png")), 1.0)?;
+            let cell = |part: fn(&PartErrors) -> f64| {
+                format!(
+                    "{:.2e} ({:.0e} / {:.0e} / {:.0e})",
+                    part(&c.mse),
+                    part(&c.reference_noise),
+                    c.bake_noise.as_ref().map_or(f64::NAN, part),
+                    c.render_noise.as_ref().map_or(f64::NAN, part),
+                )
+            };
+            let t = c.times;
+            rows.push(format!(
+            "| {label} | {} | {} | {mode} | {} | {} | {} | {} | {:.4} | {:.1} | {:.1} | {:.1} | {:.1} |",
             positions.len(),
             if grid.is_some() { "grid" } else { "delaunay" },
             cell(|p| p.image),
@@ -179,6 +184,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             t.specular_gpu_ms.unwrap_or(t.specular_ms),
             bake_seconds,
         ));
+        }
     }
     let reference = reference.ok_or("give at least one probe set")?;
     println!(
@@ -191,9 +197,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         device.describe()
     );
     println!(
-        "| probes | count | diffuse blend | final | direct | diffuse | specular | FLIP | direct (ms) | diffuse (ms) | specular (ms) | bake (s) |"
+        "| probes | count | diffuse blend | specular rays | final | direct | diffuse | specular | FLIP | direct (ms) | diffuse (ms) | specular (ms) | bake (s) |"
     );
-    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for row in rows {
         println!("{row}");
     }

@@ -29,7 +29,8 @@ use probe_place::pipeline::{Method, Optimizer, PlaceOptions};
 
 use crate::convergence::ReferenceNoise;
 use crate::final_render::{
-    DiffuseBlend, FinalComparison, FinalOptions, PartErrors, reference_final, render_and_compare,
+    DiffuseBlend, FinalComparison, FinalOptions, PartErrors, SpecularMode, reference_final,
+    render_and_compare, specular_name,
 };
 use crate::lighting::place_lit;
 use crate::metrics::{Footprints, PixelClass, TraceMetrics, flip, flip_map_rgb8, tonemapped_mse};
@@ -127,6 +128,8 @@ pub struct FinalRow {
     pub probes: usize,
     /// How the diffuse part blends the irradiance probes.
     pub blend: String,
+    /// How the specular part was traced (`filtered` or `stochastic`, one ray per pixel).
+    pub specular: String,
     /// Errors, noise floors, FLIP and times.
     pub comparison: FinalComparison,
     /// The final image (PNG).
@@ -264,11 +267,11 @@ impl DemoReport {
             );
             let _ = writeln!(
                 text,
-                "| placement | probes | diffuse blend | final MSE | direct | diffuse | specular | FLIP | direct (ms) | diffuse (ms) | specular (ms) |"
+                "| placement | probes | diffuse blend | specular rays | final MSE | direct | diffuse | specular | FLIP | direct (ms) | diffuse (ms) | specular (ms) |"
             );
             let _ = writeln!(
                 text,
-                "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+                "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"
             );
             for row in &self.finals {
                 let c = &row.comparison;
@@ -287,10 +290,11 @@ impl DemoReport {
                 let t = &c.times;
                 let _ = writeln!(
                     text,
-                    "| {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.1} | {:.1} | {:.1} |",
+                    "| {} | {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.1} | {:.1} | {:.1} |",
                     row.placement,
                     row.probes,
                     row.blend,
+                    row.specular,
                     cell(c.mse.image, |p| p.image),
                     cell(c.mse.direct, |p| p.direct),
                     cell(c.mse.diffuse, |p| p.diffuse),
@@ -730,14 +734,21 @@ fn final_images(
         files.push(png);
     }
     let mut rows = Vec::new();
-    for (name, baked, second, index) in sets {
-        log(&format!("final image through the probes: {name}"));
+    let runs = sets
+        .iter()
+        .flat_map(|set| [SpecularMode::Filtered, SpecularMode::Stochastic].map(|mode| (set, mode)));
+    for ((name, baked, second, index), specular) in runs {
+        log(&format!(
+            "final image through the probes: {name}, {} specular",
+            specular_name(specular)
+        ));
         let final_options = FinalOptions {
             blend: if index.grid.is_some() {
                 DiffuseBlend::Grid
             } else {
                 DiffuseBlend::Delaunay
             },
+            specular,
             ..FinalOptions::default()
         };
         let (first, comparison) = render_and_compare(
@@ -750,10 +761,13 @@ fn final_images(
             &final_options,
             &reference,
         )?;
-        let slug: String = name
+        let mut slug: String = name
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
             .collect();
+        if specular == SpecularMode::Stochastic {
+            slug.push_str("_stochastic");
+        }
         let image = first.parts.sum();
         let png = out.join(format!("final_{slug}.png"));
         save_png(&image, &png, exposure)?;
@@ -779,6 +793,7 @@ fn final_images(
         ));
         rows.push(FinalRow {
             placement: (*name).to_owned(),
+            specular: specular_name(specular).to_owned(),
             probes: baked.probe_count(),
             blend: if index.grid.is_some() {
                 "grid"

@@ -30,14 +30,18 @@
 //! ```
 
 use crate::EvalError;
+use crate::glossy::GLOSSY_LEVELS;
 use crate::metrics::tonemapped_mse;
 use crate::pipeline::{BuiltIndex, Device, Selection, Tracer, light_field};
 use glam::Vec3;
 use probe_capture::{
-    FinalParts, GBuffer, Image, ProbeBake, Shader, SurfaceResponse, direct_image, specular_rays,
+    FinalParts, GBuffer, Image, ProbeBake, Shader, SurfaceResponse, direct_image,
+    filtered_specular_rays, specular_rays,
 };
 use probe_scene::Scene;
-use probe_trace_gpu::{DiffuseOptions, Interpolation, ShadingPoint, TraceRay, TraceSummary};
+use probe_trace_gpu::{
+    DiffuseOptions, FieldOptions, Interpolation, ShadingPoint, TraceOptions, TraceRay, TraceSummary,
+};
 use std::time::Instant;
 
 /// How the irradiance probes are blended for the diffuse part.
@@ -49,8 +53,29 @@ pub enum DiffuseBlend {
     Delaunay,
 }
 
+/// How the specular part is traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpecularMode {
+    /// Rays sampled from each material's GGX lobe ([`probe_capture::specular_rays`]):
+    /// unbiased, noisy at one ray per pixel.
+    Stochastic,
+    /// One ray per pixel along the lobe's dominant direction whose radiance is read from the
+    /// probes' prefiltered GGX levels at the cone's footprint
+    /// ([`probe_capture::filtered_specular_rays`]; [`crate::glossy::GLOSSY_LEVELS`] levels):
+    /// no noise, a bias where the lobe straddles geometry. Not with [`Tracer::Hybrid`].
+    Filtered,
+}
+
+/// The mode's name in tables: `filtered` or `stochastic`.
+pub fn specular_name(mode: SpecularMode) -> &'static str {
+    match mode {
+        SpecularMode::Filtered => "filtered",
+        SpecularMode::Stochastic => "stochastic",
+    }
+}
+
 /// Settings of [`render_final`]. `Default` gives hi-Z through the octree, Delaunay diffuse,
-/// one specular ray and 16 emitter samples per pixel.
+/// filtered specular and 16 emitter samples per pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FinalOptions {
     /// The light-field tracer of the specular rays.
@@ -61,7 +86,9 @@ pub struct FinalOptions {
     pub blend: DiffuseBlend,
     /// The diffuse shading's options (visibility, bias).
     pub diffuse: DiffuseOptions,
-    /// Specular rays per pixel (materials rougher than
+    /// How the specular part is traced.
+    pub specular: SpecularMode,
+    /// Specular rays per pixel of [`SpecularMode::Stochastic`] (materials rougher than
     /// [`probe_capture::MIRROR_ROUGHNESS`]; mirrors take one).
     pub specular_rays_per_pixel: u32,
     /// Emitter samples per pixel of the direct light's area lights.
@@ -77,6 +104,7 @@ impl Default for FinalOptions {
             selection: Selection::Svo,
             blend: DiffuseBlend::Delaunay,
             diffuse: DiffuseOptions::default(),
+            specular: SpecularMode::Filtered,
             specular_rays_per_pixel: 1,
             emitter_samples: 16,
             seed: 0,
@@ -180,12 +208,26 @@ pub fn render_final(
     }
 
     // Specular: the GGX lobe's rays through the light field.
-    let rays = specular_rays(
-        scene,
-        gbuffer,
-        options.specular_rays_per_pixel,
-        options.seed,
-    )?;
+    let filtered = options.specular == SpecularMode::Filtered;
+    if filtered && options.tracer == Tracer::Hybrid {
+        return Err(EvalError::InvalidSetting {
+            parameter: "specular",
+            value: "filtered".into(),
+            reason: "the hybrid tracer reads no prefiltered levels; use hi-Z or two-level, or \
+                     stochastic specular rays"
+                .into(),
+        });
+    }
+    let rays = if filtered {
+        filtered_specular_rays(scene, gbuffer)
+    } else {
+        specular_rays(
+            scene,
+            gbuffer,
+            options.specular_rays_per_pixel,
+            options.seed,
+        )?
+    };
     let probe_selection = options
         .selection
         .of(index)
@@ -196,21 +238,60 @@ pub fn render_final(
                          needs a regular grid; Voronoi needs probes that span a volume)"
                 .into(),
         })?;
-    let field = device.upload(&light_field(baked), &probe_selection)?;
+    let field_options = FieldOptions {
+        glossy_levels: if filtered { GLOSSY_LEVELS } else { 0 },
+        ..FieldOptions::default()
+    };
+    let field = device.upload_with(&light_field(baked), &probe_selection, &field_options)?;
     let trace_rays: Vec<TraceRay> = rays
         .rays
         .iter()
         .map(|r| TraceRay::new(r.origin, r.direction))
         .collect();
+    // A filtered trace takes one roughness per call: the rays are traced in groups of equal
+    // roughness (one per material roughness in the view) and put back in order.
+    let mut groups: Vec<(f32, Vec<usize>)> = Vec::new();
+    if filtered {
+        for (i, &r) in rays.roughness.iter().enumerate() {
+            match groups.iter_mut().find(|(g, _)| *g == r) {
+                Some((_, members)) => members.push(i),
+                None => groups.push((r, vec![i])),
+            }
+        }
+    }
     let first = Instant::now();
-    device.trace_with(
-        scene,
-        &field,
-        &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)],
-        options.tracer,
-    )?;
+    let warm = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
+    if filtered {
+        device.trace(&field, warm, &options.tracer.options())?;
+    } else {
+        device.trace_with(scene, &field, warm, options.tracer)?;
+    }
     times.first_dispatch_ms += first.elapsed().as_secs_f64() * 1e3;
-    let traced = device.trace_with(scene, &field, &trace_rays, options.tracer)?;
+    let traced = if filtered {
+        let mut results = vec![None; trace_rays.len()];
+        let mut wall = std::time::Duration::ZERO;
+        let mut gpu = Some(std::time::Duration::ZERO);
+        for (roughness, members) in &groups {
+            let subset: Vec<TraceRay> = members.iter().map(|&i| trace_rays[i]).collect();
+            let cone = TraceOptions {
+                glossy_roughness: *roughness,
+                ..options.tracer.options()
+            };
+            let output = device.trace(&field, &subset, &cone)?;
+            wall += output.timing.wall;
+            gpu = gpu.zip(output.timing.gpu).map(|(a, b)| a + b);
+            for (&i, result) in members.iter().zip(output.results) {
+                results[i] = Some(result);
+            }
+        }
+        probe_trace_gpu::TraceOutput {
+            // Every ray is in one group: each slot was filled.
+            results: results.into_iter().flatten().collect(),
+            timing: probe_trace_gpu::Timing { wall, gpu },
+        }
+    } else {
+        device.trace_with(scene, &field, &trace_rays, options.tracer)?
+    };
     times.specular_ms = traced.timing.wall.as_secs_f64() * 1e3;
     times.specular_gpu_ms = traced.timing.gpu.map(|d| d.as_secs_f64() * 1e3);
     let radiance: Vec<Vec3> = traced.results.iter().map(|r| r.radiance).collect();

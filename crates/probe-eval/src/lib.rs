@@ -86,6 +86,7 @@ pub mod convergence;
 pub mod demo;
 pub mod failures;
 pub mod final_render;
+pub mod glossy;
 pub mod lighting;
 pub mod metrics;
 pub mod pipeline;

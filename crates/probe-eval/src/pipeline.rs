@@ -558,6 +558,20 @@ impl Device {
             .upload(field, selection, &FieldOptions::default())?)
     }
 
+    /// Uploads probe maps and a selection with field options of the caller's (e.g. prefiltered
+    /// glossy levels, [`FieldOptions::glossy_levels`]).
+    ///
+    /// # Errors
+    /// [`EvalError::Upload`].
+    pub fn upload_with(
+        &mut self,
+        field: &LightField<'_>,
+        selection: &ProbeSelection<'_>,
+        options: &FieldOptions,
+    ) -> Result<AnyField, EvalError> {
+        Ok(self.tracer.upload(field, selection, options)?)
+    }
+
     /// Traces rays through uploaded probes.
     ///
     /// # Errors

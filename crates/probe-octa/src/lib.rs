@@ -14,7 +14,8 @@
 //! * [`MinMaxPyramid`]: conservative min/max radial-distance pyramids for hi-Z tracing
 //!   (seed 000 §4.3) and McGuire's low-resolution minimum-distance map;
 //! * [`distance_moments`], [`irradiance_map`], [`lobe_mean`], [`chebyshev_visibility`]: DDGI's
-//!   low-resolution filtered maps; [`ShL2Rgb`]: L2 spherical harmonics and their irradiance;
+//!   low-resolution filtered maps; [`glossy_pyramid`] / [`ggx_filter`]: prefiltered radiance
+//!   for glossy cone tracing (one GGX lobe per level); [`ShL2Rgb`]: L2 spherical harmonics and their irradiance;
 //! * [`split_ray`]: the ≤ 4 straight octahedral segments of a world-space ray.
 //!
 //! It depends on `glam` and `thiserror` only.
@@ -88,6 +89,7 @@
 
 mod cube;
 mod filter;
+mod glossy;
 mod layout;
 mod map;
 mod octahedral;
@@ -99,6 +101,10 @@ pub use cube::{CubeFace, CubeMap, default_sharpness};
 pub use filter::{
     DDGI_DISTANCE_RESOLUTION, DDGI_IRRADIANCE_RESOLUTION, FilterError, chebyshev_visibility,
     distance_moments, irradiance_map, lobe_mean,
+};
+pub use glossy::{
+    GGX_TAIL, downsample_box, ggx_alpha_for_angle, ggx_filter, ggx_lobe_angle, glossy_level_alpha,
+    glossy_pyramid, texel_angle,
 };
 pub use layout::{MAX_RESOLUTION, OctaLayout, ResolutionError};
 pub use map::{MapError, OctaMap, Texel};

@@ -61,8 +61,26 @@ impl DeviceFootprint {
         resolution: u32,
         selection: Option<&ProbeSelection<'_>>,
     ) -> DeviceFootprint {
+        Self::light_field_with_glossy(probes, resolution, 0, selection)
+    }
+
+    /// [`Self::light_field`] for a field uploaded with `glossy_levels` prefiltered glossy
+    /// levels ([`crate::FieldOptions::glossy_levels`], clamped as there), which the radiance
+    /// buffer holds after level 0.
+    pub fn light_field_with_glossy(
+        probes: usize,
+        resolution: u32,
+        glossy_levels: u32,
+        selection: Option<&ProbeSelection<'_>>,
+    ) -> DeviceFootprint {
         let p = probes as u64;
         let texels = p * padded_len(resolution) as u64;
+        let glossy_texels = if resolution.is_power_of_two() {
+            let levels = crate::packed::glossy_level_count(resolution, glossy_levels);
+            p * crate::packed::glossy_texels_per_probe(resolution, levels) as u64
+        } else {
+            0
+        };
         let levels = if resolution.is_power_of_two() {
             resolution.trailing_zeros() + 1
         } else {
@@ -106,7 +124,7 @@ impl DeviceFootprint {
                 },
                 DeviceBuffer {
                     name: "radiance",
-                    bytes: texels * RADIANCE_TEXEL_BYTES,
+                    bytes: (texels + glossy_texels) * RADIANCE_TEXEL_BYTES,
                     lower: LOWER_PROBES_OR_RESOLUTION,
                 },
                 DeviceBuffer {
@@ -280,6 +298,20 @@ mod tests {
             sky_distance: 100.0,
         };
         let packed = PackedField::new(&field, &FieldOptions::default()).unwrap();
+        // Prefiltered glossy levels (asked for more than a 16² map has: clamped to 3).
+        let glossy = PackedField::new(
+            &field,
+            &FieldOptions {
+                glossy_levels: 9,
+                ..FieldOptions::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(glossy.glossy_levels, 3);
+        assert_eq!(
+            DeviceFootprint::light_field_with_glossy(probes, n, 9, None).buffers()[3].bytes,
+            (glossy.radiance.len() * 4) as u64
+        );
         let grid = ProbeGrid::new(Vec3::ZERO, Vec3::ONE, [3, 3, 3]).unwrap();
         let tets = Tetrahedralization::build(&positions).unwrap();
         let neighbours = VoronoiNeighbours::bake(&tets, 8).unwrap();

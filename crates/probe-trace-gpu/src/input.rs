@@ -57,6 +57,12 @@ pub struct FieldOptions {
     /// answers for rays left UNKNOWN: on the Cornell box at 64² wrong answers fall from 2.3 % to
     /// 0.2 % of rays while UNKNOWN rises from 0.4 % to 18 % (see `BENCHMARKS.md`). Default false.
     pub conservative_edges: bool,
+    /// Prefiltered radiance levels for glossy cone tracing ([`crate::TraceOptions::glossy_roughness`]):
+    /// level `k` of each probe is its radiance at resolution `N >> k` convolved with a GGX
+    /// lobe one level texel wide (`probe_octa::glossy_pyramid`), computed at upload from the
+    /// radiance maps and stored after them in the radiance buffer (a third more texels for
+    /// all levels). Clamped to `log2(N) − 1` (down to 2×2) and 7. Default 0 (none).
+    pub glossy_levels: u32,
 }
 
 impl Default for FieldOptions {
@@ -64,6 +70,7 @@ impl Default for FieldOptions {
         Self {
             thickness_scale: 1.0,
             conservative_edges: false,
+            glossy_levels: 0,
         }
     }
 }

@@ -62,8 +62,94 @@ pub(crate) struct PackedField {
     pub level_offsets: [u32; MAX_LEVELS],
     /// Levels including level 0: `log2(N) + 1`.
     pub level_count: u32,
-    /// Radiance, 3 floats per padded texel.
+    /// Radiance, 3 floats per padded texel: level 0 (the bake's maps), then the prefiltered
+    /// glossy levels `1..=glossy_levels` (`probe_octa::glossy_pyramid`), level `k` of probe
+    /// `p` at texel `glossy_offsets[k] + p·(N >> k + 2)²`, padded, row-major.
     pub radiance: Vec<f32>,
+    /// Prefiltered glossy levels after level 0 (0: none).
+    pub glossy_levels: u32,
+    /// Start texel of each glossy level in `radiance` (level 0 unused).
+    pub glossy_offsets: [u32; MAX_GLOSSY_LEVELS + 1],
+}
+
+/// Most prefiltered glossy levels a field holds (`FieldOptions::glossy_levels` is clamped).
+pub(crate) const MAX_GLOSSY_LEVELS: usize = 7;
+
+/// Glossy levels a field of resolution `n` gets for `requested` (at most `log2(n) − 1`, down
+/// to 2×2, and [`MAX_GLOSSY_LEVELS`]).
+pub(crate) fn glossy_level_count(n: u32, requested: u32) -> u32 {
+    requested
+        .min(n.trailing_zeros().saturating_sub(1))
+        .min(MAX_GLOSSY_LEVELS as u32)
+}
+
+/// Padded texels of the glossy levels `1..=levels` of one probe of resolution `n`.
+pub(crate) fn glossy_texels_per_probe(n: u32, levels: u32) -> usize {
+    (1..=levels).map(|k| padded_len(n >> k)).sum()
+}
+
+/// The prefiltered glossy levels of every probe, appended to `radiance` (3 floats per padded
+/// texel, level-major, probes in order within a level), with each level's start texel.
+fn pack_glossy(
+    n: u32,
+    probes: usize,
+    levels: u32,
+    source: &[Vec3],
+    radiance: &mut Vec<f32>,
+) -> [u32; MAX_GLOSSY_LEVELS + 1] {
+    let mut offsets = [0u32; MAX_GLOSSY_LEVELS + 1];
+    if levels == 0 {
+        return offsets;
+    }
+    let per_probe = padded_len(n);
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |t| t.get())
+        .min(probes);
+    let next_probe = std::sync::atomic::AtomicUsize::new(0);
+    let mut pyramids: Vec<Vec<probe_octa::OctaMap<Vec3>>> = vec![Vec::new(); probes];
+    let (sender, receiver) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            let (sender, next_probe) = (sender.clone(), &next_probe);
+            scope.spawn(move || {
+                loop {
+                    let probe = next_probe.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    if probe >= probes {
+                        break;
+                    }
+                    let texels = source[probe * per_probe..(probe + 1) * per_probe].to_vec();
+                    let pyramid = probe_octa::OctaMap::from_padded(n, texels)
+                        .ok()
+                        .and_then(|map| probe_octa::glossy_pyramid(&map, levels).ok())
+                        .unwrap_or_default();
+                    if sender.send((probe, pyramid)).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(sender);
+        for (probe, pyramid) in receiver {
+            pyramids[probe] = pyramid;
+        }
+    });
+    for (k, offset) in offsets
+        .iter_mut()
+        .enumerate()
+        .take(levels as usize + 1)
+        .skip(1)
+    {
+        *offset = (radiance.len() / 3) as u32;
+        let side = padded_len(n >> k);
+        for pyramid in &pyramids {
+            match pyramid.get(k - 1) {
+                Some(map) => radiance.extend(map.texels().iter().flat_map(|c| c.to_array())),
+                // Not reached: the resolution is a checked power of two of at least 8.
+                None => radiance.extend(std::iter::repeat_n(0.0, 3 * side)),
+            }
+        }
+    }
+    offsets
 }
 
 fn check_finite(parameter: &'static str, values: &[Vec3]) -> Result<(), UploadError> {
@@ -448,7 +534,14 @@ impl PackedField {
             }
         }
 
-        let radiance: Vec<f32> = field.radiance.iter().flat_map(|c| c.to_array()).collect();
+        let glossy_levels = glossy_level_count(n, options.glossy_levels);
+        check_addressable(
+            "radiance",
+            probes as u64 * (per_probe + glossy_texels_per_probe(n, glossy_levels)) as u64 * 3,
+            4,
+        )?;
+        let mut radiance: Vec<f32> = field.radiance.iter().flat_map(|c| c.to_array()).collect();
+        let glossy_offsets = pack_glossy(n, probes, glossy_levels, field.radiance, &mut radiance);
         let sky = field.sky_distance;
         let layout = OctaLayout::new(n).expect("resolution checked");
         let centers: Vec<Vec3> = (0..n * n)
@@ -553,6 +646,8 @@ impl PackedField {
             level_offsets,
             level_count,
             radiance,
+            glossy_levels,
+            glossy_offsets,
         })
     }
 
@@ -951,7 +1046,7 @@ impl PackedIrradiance {
     }
 }
 
-/// The trace pass's uniform block (256 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
+/// The trace pass's uniform block (304 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(crate) struct TraceParams {
@@ -981,7 +1076,17 @@ pub(crate) struct TraceParams {
     pub kd_count: u32,
     pub neighbour_table: u32,
     pub neighbour_resolution: u32,
+    /// Prefiltered glossy levels read (0: mirror rays, level 0 only).
+    pub glossy_levels: u32,
+    /// `tan` of the rays' cone angle (`probe_octa::ggx_lobe_angle` of their roughness).
+    pub glossy_tan: f32,
+    /// The rays' cone angle (radians).
+    pub glossy_angle: f32,
+    /// `probe_octa::texel_angle(N)`: the cone angle level 0 matches.
+    pub glossy_base_angle: f32,
     pub pad1: u32,
+    /// Start texel of each glossy level in the radiance buffer (entry 0 unused).
+    pub glossy_offsets: [[u32; 4]; 2],
 }
 
 /// The diffuse pass's uniform block (112 bytes). WGSL mirror `DiffuseParams` in
@@ -1052,6 +1157,26 @@ pub(crate) fn trace_params(
             requirement: "it must be a power of two (1 disables the coarse level)",
         });
     }
+    let roughness = options.glossy_roughness;
+    if !(0.0..=1.0).contains(&roughness) {
+        return Err(TraceError::BadOption {
+            option: "glossy_roughness",
+            value: f64::from(roughness),
+            requirement: "it must be from 0 (mirror rays) to 1",
+        });
+    }
+    if roughness > 0.0 && field.glossy_levels == 0 {
+        return Err(TraceError::BadOption {
+            option: "glossy_roughness",
+            value: f64::from(roughness),
+            requirement: "a cone needs prefiltered levels: upload with FieldOptions::glossy_levels > 0, or trace with 0",
+        });
+    }
+    let glossy_angle = probe_octa::ggx_lobe_angle(roughness * roughness);
+    let mut glossy_offsets = [[0u32; 4]; 2];
+    for (i, &offset) in field.glossy_offsets.iter().enumerate() {
+        glossy_offsets[i / 4][i % 4] = offset;
+    }
     let top = field.level_count - 1;
     let mut level_offsets = [[0u32; 4]; 4];
     for (i, &offset) in field.level_offsets.iter().enumerate() {
@@ -1089,7 +1214,16 @@ pub(crate) fn trace_params(
         kd_count: selection.kd_count,
         neighbour_table: selection.neighbour_table,
         neighbour_resolution: selection.neighbour_resolution,
+        glossy_levels: if roughness > 0.0 {
+            field.glossy_levels
+        } else {
+            0
+        },
+        glossy_tan: glossy_angle.tan(),
+        glossy_angle,
+        glossy_base_angle: probe_octa::texel_angle(field.resolution),
         pad1: 0,
+        glossy_offsets,
     })
 }
 

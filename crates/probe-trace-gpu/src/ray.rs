@@ -248,6 +248,16 @@ pub struct TraceOptions {
     pub nearest_candidates: u32,
     /// Reject hits on surfaces facing away from the ray (seed 003 §7.2). Default true.
     pub back_face_rejection: bool,
+    /// Filtered glossy: the perceptual GGX roughness `r` of every ray (`α = r²`, as
+    /// `probe_capture::Reflection::Ggx`), 0..=1; 0 (the default) reads level 0 only. Each ray
+    /// stands for a cone of angle `φ = probe_octa::ggx_lobe_angle(α)` about it (the lobe's
+    /// median angle): geometry comes from the centre ray as before; the radiance at a hit
+    /// `t` along the ray, seen from the answering probe at distance `D`, is read from the
+    /// prefiltered level whose texel matches the cone's footprint, `λ = log2(atan(t·tan φ / D)
+    /// / texel_angle(N))` (for the sky, `φ` itself), interpolated between the two levels
+    /// around `λ` (level 0 is the usual depth-aware read). Needs a field uploaded with
+    /// [`crate::FieldOptions::glossy_levels`] > 0.
+    pub glossy_roughness: f32,
 }
 
 impl Default for TraceOptions {
@@ -259,6 +269,7 @@ impl Default for TraceOptions {
             max_probes: 16,
             nearest_candidates: 16,
             back_face_rejection: true,
+            glossy_roughness: 0.0,
         }
     }
 }

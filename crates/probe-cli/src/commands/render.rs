@@ -9,10 +9,15 @@ use crate::spec::{MemoryArgs, camera, open_scene_with_limit, warnings_json};
 use glam::Vec3;
 use probe_capture::Image;
 use probe_capture::{ProbeBake, accumulate_rays, reflection_rays, render_gbuffer};
-use probe_eval::final_render::{DiffuseBlend, FinalOptions, ProbeFinal, render_final};
+use probe_eval::final_render::{
+    DiffuseBlend, FinalOptions, ProbeFinal, SpecularMode, render_final,
+};
 use probe_eval::pipeline::{Device, Selection, Tracer, build_index, light_field};
 use probe_index::ProbeGrid;
-use probe_trace_gpu::{DiffuseOptions, Interpolation, ShadingPoint, TraceRay, TraceSummary};
+use probe_trace_gpu::{
+    DiffuseOptions, FieldOptions, Interpolation, ShadingPoint, TraceOptions, TraceRay, TraceSummary,
+};
+
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -53,6 +58,15 @@ pub enum ComponentArg {
     Final,
 }
 
+/// How the final image's specular part is traced.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpecularArg {
+    /// One ray per pixel read from the prefiltered GGX levels.
+    Filtered,
+    /// GGX samples per pixel.
+    Stochastic,
+}
+
 /// Arguments of `probes render`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -88,10 +102,20 @@ pub struct Args {
     /// Emitter samples per pixel of the direct light of `final` (shadow rays to area lights).
     #[arg(long, default_value_t = 16)]
     pub emitter_samples: u32,
+    /// How `final` traces its specular part: `filtered` (one ray per pixel read from the
+    /// probes' prefiltered GGX levels; no noise) or `stochastic` (`--rays-per-pixel` GGX
+    /// samples per pixel).
+    #[arg(long, value_enum, default_value_t = SpecularArg::Filtered)]
+    pub specular: SpecularArg,
     /// With `final`: also write the parts (direct, diffuse, specular) beside `--out`, as
     /// `NAME.direct.exr` and `.png`, and so on.
     #[arg(long)]
     pub split: bool,
+    /// Filtered glossy (needs `--roughness` > 0; not with `--tracer hybrid`): one mirror ray
+    /// per pixel whose radiance is read from the probes' prefiltered GGX levels at the cone's
+    /// footprint, weighted by the lobe's albedo; no noise. `--rays-per-pixel` is ignored.
+    #[arg(long)]
+    pub filtered: bool,
     /// Depth of the sparse voxel octree (for `--select svo`).
     #[arg(long, default_value_t = 7)]
     pub svo_depth: u32,
@@ -247,7 +271,19 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         } else {
             probe_capture::Reflection::Mirror
         };
-        let rays = reflection_rays(&gbuffer, reflection, args.rays_per_pixel, args.seed)?;
+        if args.filtered && (args.roughness <= 0.0 || matches!(args.tracer, TracerArg::Hybrid)) {
+            return Err(CliError::InvalidArgument {
+                parameter: "--filtered",
+                value: format!("roughness {}, tracer {:?}", args.roughness, args.tracer),
+                reason: "filtered glossy needs --roughness > 0 and a light-field tracer (hiz or two-level)"
+                    .into(),
+            });
+        }
+        let rays = if args.filtered {
+            probe_eval::glossy::filtered_reflection_rays(&gbuffer, args.roughness)?
+        } else {
+            reflection_rays(&gbuffer, reflection, args.rays_per_pixel, args.seed)?
+        };
         let selection = match args.select {
             SelectArg::Grid => Selection::Grid,
             SelectArg::Svo => Selection::Svo,
@@ -282,7 +318,22 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::TwoLevel => Tracer::TwoLevel,
             TracerArg::Hybrid => Tracer::Hybrid,
         };
-        let field = device.upload(&light_field(&baked), &probe_selection)?;
+        let field = if args.filtered {
+            device.upload_with(
+                &light_field(&baked),
+                &probe_selection,
+                &FieldOptions {
+                    glossy_levels: probe_eval::glossy::GLOSSY_LEVELS,
+                    ..FieldOptions::default()
+                },
+            )?
+        } else {
+            device.upload(&light_field(&baked), &probe_selection)?
+        };
+        let cone = TraceOptions {
+            glossy_roughness: args.roughness,
+            ..tracer.options()
+        };
         let trace_rays: Vec<TraceRay> = rays
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
@@ -290,18 +341,23 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
         // cache); time it apart and the trace on the second.
         let first_start = Instant::now();
-        device.trace_with(
-            &scene,
-            &field,
-            &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)],
-            tracer,
-        )?;
+        let warm_up = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
+        if args.filtered {
+            device.trace(&field, warm_up, &cone)?;
+        } else {
+            device.trace_with(&scene, &field, warm_up, tracer)?;
+        }
         let first_dispatch_ms = first_start.elapsed().as_secs_f64() * 1e3;
-        let output = device.trace_with(&scene, &field, &trace_rays, tracer)?;
+        let output = if args.filtered {
+            device.trace(&field, &trace_rays, &cone)?
+        } else {
+            device.trace_with(&scene, &field, &trace_rays, tracer)?
+        };
         let summary = TraceSummary::of(&output.results);
         let radiance: Vec<Vec3> = output.results.iter().map(|r| r.radiance).collect();
         let map = json.as_object_mut().expect("an object");
         map.insert("component".into(), json!("glossy1"));
+        map.insert("filtered".into(), json!(args.filtered));
         map.insert("tracer".into(), json!(tracer.name()));
         map.insert("select".into(), json!(selection.name()));
         map.insert("rays".into(), json!(summary.rays));
@@ -451,6 +507,10 @@ fn final_component(
         },
         selection,
         blend,
+        specular: match args.specular {
+            SpecularArg::Filtered => SpecularMode::Filtered,
+            SpecularArg::Stochastic => SpecularMode::Stochastic,
+        },
         specular_rays_per_pixel: args.rays_per_pixel,
         emitter_samples: args.emitter_samples,
         seed: args.seed,

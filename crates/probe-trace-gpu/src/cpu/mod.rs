@@ -433,6 +433,85 @@ fn filtered_radiance(
     radiance(field, probe, cell)
 }
 
+/// Bilinear radiance of prefiltered glossy level `level` (>= 1) of `probe` in unit direction
+/// `d`, through the level's padding: four fetches.
+fn glossy_sample(
+    field: &PackedField,
+    params: &TraceParams,
+    level: u32,
+    probe: u32,
+    d: Vec3,
+    fetches: &mut u32,
+) -> Vec3 {
+    use glam::Vec2;
+    let n = field.resolution >> level;
+    let side = n + 2;
+    let o = probe_octa::encode(d).clamp(Vec2::NEG_ONE, Vec2::ONE);
+    let c = Vec2::ONE + (o + Vec2::ONE) * (0.5 * n as f32) - Vec2::splat(0.5);
+    let base = c.floor().clamp(Vec2::ZERO, Vec2::splat(n as f32));
+    let frac = (c - base).clamp(Vec2::ZERO, Vec2::ONE);
+    let l = level as usize;
+    let start = params.glossy_offsets[l / 4][l % 4] + probe * side * side;
+    let mut sum = Vec3::ZERO;
+    for k in 0..4u32 {
+        let (a, b) = (k & 1, k >> 1);
+        let wx = if a == 1 { frac.x } else { 1.0 - frac.x };
+        let wy = if b == 1 { frac.y } else { 1.0 - frac.y };
+        let i = 3 * (start + (base.y as u32 + b) * side + base.x as u32 + a) as usize;
+        *fetches += 1;
+        sum += (wx * wy)
+            * Vec3::new(
+                field.radiance[i],
+                field.radiance[i + 1],
+                field.radiance[i + 2],
+            );
+    }
+    sum
+}
+
+/// The radiance a ray's cone gathers where it ends (`TraceOptions::glossy_roughness`): with
+/// no glossy levels in use, [`filtered_radiance`]; else the levels around
+/// `λ = log2(φ_p / texel_angle(N))`, linearly interpolated, where `φ_p` is the cone's
+/// footprint `t·tan φ` at the hit seen from the probe at `v` (`atan(t·tan φ / |v|)`), or for
+/// the sky the cone angle `φ` itself. Level 0 is [`filtered_radiance`].
+#[allow(clippy::too_many_arguments)]
+fn glossy_radiance(
+    field: &PackedField,
+    params: &TraceParams,
+    probe: u32,
+    v: Vec3,
+    sky: bool,
+    cell: UVec2,
+    t: f32,
+    fetches: &mut u32,
+) -> [f32; 3] {
+    let r = v.length();
+    if params.glossy_levels == 0 || r <= 0.0 {
+        return filtered_radiance(field, probe, v, sky, cell, fetches);
+    }
+    let angle = if sky {
+        params.glossy_angle
+    } else {
+        (t * params.glossy_tan / r).atan()
+    };
+    let lambda = (angle.max(1e-30) / params.glossy_base_angle)
+        .log2()
+        .clamp(0.0, params.glossy_levels as f32);
+    let lo = lambda.floor() as u32;
+    let f = lambda - lambda.floor();
+    let d = v / r;
+    let a = if lo == 0 {
+        Vec3::from(filtered_radiance(field, probe, v, sky, cell, fetches))
+    } else {
+        glossy_sample(field, params, lo, probe, d, fetches)
+    };
+    if f > 0.0 {
+        let b = glossy_sample(field, params, lo + 1, probe, d, fetches);
+        return a.lerp(b, f).to_array();
+    }
+    a.to_array()
+}
+
 /// The interior texel holding `direction`.
 fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     let [x, y] = probe_octa::OctaLayout::new(resolution)
@@ -571,10 +650,28 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 record.t = answer.t;
                 record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
-                filtered_radiance(field, probe, hit - at, false, answer.cell, &mut fetches)
+                glossy_radiance(
+                    field,
+                    params,
+                    probe,
+                    hit - at,
+                    false,
+                    answer.cell,
+                    answer.t,
+                    &mut fetches,
+                )
             } else {
                 let cell = direction_cell(field.resolution, direction);
-                filtered_radiance(field, probe, direction, true, cell, &mut fetches)
+                glossy_radiance(
+                    field,
+                    params,
+                    probe,
+                    direction,
+                    true,
+                    cell,
+                    answer.t,
+                    &mut fetches,
+                )
             };
             record.probe = probe;
             break;
@@ -586,13 +683,31 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 let v = hit - field.position(probe);
                 (
                     crate::surface::unpack_normal(answer.normal),
-                    filtered_radiance(field, probe, v, false, answer.cell, &mut fetches),
+                    glossy_radiance(
+                        field,
+                        params,
+                        probe,
+                        v,
+                        false,
+                        answer.cell,
+                        answer.t,
+                        &mut fetches,
+                    ),
                 )
             } else {
                 let cell = direction_cell(field.resolution, direction);
                 (
                     Vec3::ZERO,
-                    filtered_radiance(field, probe, direction, true, cell, &mut fetches),
+                    glossy_radiance(
+                        field,
+                        params,
+                        probe,
+                        direction,
+                        true,
+                        cell,
+                        answer.t,
+                        &mut fetches,
+                    ),
                 )
             };
             record.status = answer.code;

@@ -51,7 +51,7 @@ const MAX_CHUNK: usize = 1 << 20;
 ///
 /// | binding | type | holds |
 /// |---|---|---|
-/// | 0 | uniform | the trace parameters (`TraceParams` in the WGSL, 256 B): options, selection header, ray count and threads per dispatch row; written by [`GpuTracer::bind_trace`] |
+/// | 0 | uniform | the trace parameters (`TraceParams` in the WGSL, 304 B): options, selection header, ray count and threads per dispatch row; written by [`GpuTracer::bind_trace`] |
 /// | 1 | storage, read | the rays, [`TraceRay`] (32 B each) |
 /// | 2 | storage, read-write | the results, [`RayRecord`] (64 B each), one per ray in order |
 /// | 3 | storage, read | probe centres, `vec4<f32>` per probe |
@@ -1043,8 +1043,13 @@ impl Tracer for GpuTracer {
         // invalid resolution is left to the packing's own error).
         let n = field.resolution;
         if n.is_power_of_two() && (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&n) {
-            DeviceFootprint::light_field(field.positions.len(), n, Some(selection))
-                .check(&self.limits)?;
+            DeviceFootprint::light_field_with_glossy(
+                field.positions.len(),
+                n,
+                options.glossy_levels,
+                Some(selection),
+            )
+            .check(&self.limits)?;
         }
         let mut meta = PackedField::new(field, options)?;
         let selection = PackedSelection::new(selection, field.positions)?;

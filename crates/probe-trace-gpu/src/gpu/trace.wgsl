@@ -28,7 +28,7 @@ struct SvoHeader {
     pad2: u32,
 }
 
-// src/packed.rs TraceParams (256 bytes).
+// src/packed.rs TraceParams (304 bytes).
 struct TraceParams {
     resolution: u32,
     probe_count: u32,
@@ -56,7 +56,12 @@ struct TraceParams {
     kd_count: u32,
     neighbour_table: u32,
     neighbour_resolution: u32,
+    glossy_levels: u32,
+    glossy_tan: f32,
+    glossy_angle: f32,
+    glossy_base_angle: f32,
     pad2: u32,
+    glossy_offsets: array<vec4<u32>, 2>,
 }
 
 // src/ray.rs TraceRay (32 bytes).
@@ -94,7 +99,7 @@ struct RayRecord {
 // Levels 1.. of the pyramids: min near bits, max far bits, packed outward normal of the
 // bounding plane, plane offset bits (src/pyramid.rs).
 @group(0) @binding(5) var<storage, read> pyramid: array<vec4<u32>>;
-// 3 floats per padded texel.
+// 3 floats per padded texel: level 0, then the prefiltered glossy levels (src/packed.rs).
 @group(0) @binding(6) var<storage, read> radiance: array<f32>;
 // Octree nodes and payloads, or k-d tree nodes and the neighbour table.
 @group(0) @binding(7) var<storage, read> words: array<u32>;
@@ -965,6 +970,63 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
     return radiance_at(probe, cell);
 }
 
+// Bilinear radiance of prefiltered glossy level `level` (>= 1) of `probe` in unit direction d,
+// through the level's padding (src/cpu/mod.rs glossy_sample): four fetches.
+fn glossy_sample(level: u32, probe: u32, d: vec3<f32>) -> vec3<f32> {
+    let n = params.resolution >> level;
+    let side = n + 2u;
+    let o = clamp(octa_encode(d), vec2<f32>(-1.0), vec2<f32>(1.0));
+    let c = vec2<f32>(1.0) + (o + vec2<f32>(1.0)) * (0.5 * f32(n)) - vec2<f32>(0.5);
+    let base = clamp(floor(c), vec2<f32>(0.0), vec2<f32>(f32(n)));
+    let frac = clamp(c - base, vec2<f32>(0.0), vec2<f32>(1.0));
+    let start = params.glossy_offsets[level / 4u][level % 4u] + probe * side * side;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < 4u; k++) {
+        let a = k & 1u;
+        let b = k >> 1u;
+        var wx = 1.0 - frac.x;
+        if (a == 1u) {
+            wx = frac.x;
+        }
+        var wy = 1.0 - frac.y;
+        if (b == 1u) {
+            wy = frac.y;
+        }
+        let i = 3u * (start + (u32(base.y) + b) * side + u32(base.x) + a);
+        fetches += 1u;
+        sum += (wx * wy) * vec3<f32>(radiance[i], radiance[i + 1u], radiance[i + 2u]);
+    }
+    return sum;
+}
+
+// The radiance a ray's cone gathers where it ends (src/cpu/mod.rs glossy_radiance): level 0's
+// depth-aware read, or the prefiltered levels around the one whose texel matches the cone's
+// footprint `t·tan φ` seen from the probe at v (for the sky, the angle φ).
+fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32) -> vec3<f32> {
+    let r = length(v);
+    if (params.glossy_levels == 0u || r <= 0.0) {
+        return filtered_radiance(probe, v, sky, cell);
+    }
+    var angle = params.glossy_angle;
+    if (!sky) {
+        angle = atan(t * params.glossy_tan / r);
+    }
+    let lambda = clamp(log2(max(angle, 1e-30) / params.glossy_base_angle), 0.0, f32(params.glossy_levels));
+    let lo = u32(floor(lambda));
+    let f = lambda - floor(lambda);
+    let d = v / r;
+    var a: vec3<f32>;
+    if (lo == 0u) {
+        a = filtered_radiance(probe, v, sky, cell);
+    } else {
+        a = glossy_sample(lo, probe, d);
+    }
+    if (f > 0.0) {
+        return mix(a, glossy_sample(lo + 1u, probe, d), f);
+    }
+    return a;
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
@@ -1047,10 +1109,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 record.t = answer.t;
                 record.position = hit;
                 record.normal = unpack_normal(answer.normal);
-                record.radiance = filtered_radiance(probe, hit - at, false, answer.cell);
+                record.radiance = glossy_radiance(probe, hit - at, false, answer.cell, answer.t);
             } else {
                 let cell = texel_containing(params.resolution, direction);
-                record.radiance = filtered_radiance(probe, direction, true, cell);
+                record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
             record.probe = probe;
             break;
@@ -1060,10 +1122,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             var normal = vec3<f32>(0.0);
             if (answer.code == HIT) {
                 normal = unpack_normal(answer.normal);
-                record.radiance = filtered_radiance(probe, hit - positions[probe].xyz, false, answer.cell);
+                record.radiance = glossy_radiance(probe, hit - positions[probe].xyz, false, answer.cell, answer.t);
             } else {
                 let cell = texel_containing(params.resolution, direction);
-                record.radiance = filtered_radiance(probe, direction, true, cell);
+                record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
             record.status = answer.code;
             record.t = answer.t;

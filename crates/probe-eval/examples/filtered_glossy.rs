@@ -1,0 +1,291 @@
+//! Filtered glossy (issue 14, item 2): one cone ray per pixel through the probes' prefiltered
+//! radiance pyramid against many stochastic GGX rays through the same probes and against the
+//! path-traced truth, at several roughnesses: tone-mapped MSE, FLIP and trace time.
+//!
+//! ```text
+//! cargo run --release -p probe-eval --example filtered_glossy -- \
+//!     [SCENE] [PROBES] [RESOLUTION] [WIDTH]x[HEIGHT] [CAMERA] [OUT] [NAME] [ROUGHNESS ...]
+//! ```
+//!
+//! Defaults: `builtin:cornell grid:3x3x3 64 256x256 default docs/glossy cornell 0.1 0.3 0.6`.
+//! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
+//! once with 6 prefiltered glossy levels to the GPU (lavapipe here) or, without an adapter, the
+//! CPU twin; the regular grid's cage selects probes, hi-Z traces. Per roughness:
+//!
+//! - **reference**: the path-traced glossy component of 64 GGX rays per pixel
+//!   (`EvalView::render`, 2 shading samples per hit); its noise floor is the tone-mapped MSE
+//!   between its even and odd rays' images over 4 (lobe and shading noise of the 64-ray mean);
+//! - **probes, 64 rpp**: the same 64 rays per pixel traced through the probes (what the
+//!   stochastic estimate converges to);
+//! - **stochastic 16 rpp**: 16 GGX rays per pixel (another seed) through the probes;
+//! - **filtered 1 rpp**: one mirror ray per pixel traced with `glossy_roughness`, weighted
+//!   with the lobe's albedo (`probe_eval::glossy`).
+//!
+//! Trace times of the filtered and stochastic images are the median of 3 calls after a warm-up
+//! call (GPU timestamps when the device has them, else wall time); the 64-rpp trace runs once. Prints a Markdown table and writes `OUT/NAME.png`: per roughness
+//! a row filtered 1 rpp | stochastic 16 rpp | reference, at the reference's exposure.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use glam::Vec3;
+use probe_capture::{
+    EvaluationRay, Image, Reflection, Sampling, accumulate_rays, find_camera, reflection_rays,
+    render_gbuffer,
+};
+use probe_eval::glossy::filtered_reflection_rays;
+use probe_eval::metrics::{flip, tonemapped_mse};
+use probe_eval::pipeline::{
+    Device, EvalView, Selection, ViewSettings, bake_for_view, build_index, light_field,
+};
+use probe_index::ProbeGrid;
+use probe_place::ProbeSet;
+use probe_scene::Scene;
+use probe_trace_gpu::{AnyField, FieldOptions, TraceOptions, TraceRay};
+
+const REFERENCE_RPP: u32 = 64;
+const STOCHASTIC_RPP: u32 = 16;
+const GLOSSY_LEVELS: u32 = 6;
+
+/// Milliseconds of the median of `repeats` traces (after a warm-up call), and the last
+/// trace's image.
+fn timed_image(
+    device: &mut Device,
+    field: &AnyField,
+    rays: &[EvaluationRay],
+    options: &TraceOptions,
+    size: (u32, u32),
+    repeats: usize,
+) -> Result<(Image, f64), Box<dyn std::error::Error>> {
+    let trace_rays: Vec<TraceRay> = rays
+        .iter()
+        .map(|r| TraceRay::new(r.origin, r.direction))
+        .collect();
+    device.trace(field, &trace_rays[..trace_rays.len().min(4096)], options)?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..repeats {
+        let output = device.trace(field, &trace_rays, options)?;
+        let t = output.timing.gpu.unwrap_or(output.timing.wall);
+        times.push(t.as_secs_f64() * 1e3);
+        last = Some(output.results);
+    }
+    times.sort_by(f64::total_cmp);
+    let radiance: Vec<Vec3> = last
+        .unwrap_or_default()
+        .iter()
+        .map(|r| r.radiance)
+        .collect();
+    Ok((
+        accumulate_rays(size.0, size.1, rays, &radiance)?,
+        times[times.len() / 2],
+    ))
+}
+
+/// The image of every other ray of each pixel (`parity` 0 or 1), weights doubled.
+fn half_image(
+    view: &EvalView,
+    parity: usize,
+    size: (u32, u32),
+) -> Result<Image, Box<dyn std::error::Error>> {
+    let mut rays = Vec::new();
+    let mut radiance = Vec::new();
+    let mut k = 0usize;
+    let mut pixel = u32::MAX;
+    for (ray, sample) in view.rays.iter().zip(&view.reference) {
+        if ray.pixel != pixel {
+            (pixel, k) = (ray.pixel, 0);
+        }
+        if k % 2 == parity {
+            rays.push(EvaluationRay {
+                weight: 2.0 * ray.weight,
+                ..*ray
+            });
+            radiance.push(sample.radiance);
+        }
+        k += 1;
+    }
+    Ok(accumulate_rays(size.0, size.1, &rays, &radiance)?)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let arg = |i: usize, default: &str| args.get(i).cloned().unwrap_or_else(|| default.into());
+    let scene_spec = arg(0, "builtin:cornell");
+    let probes_spec = arg(1, "grid:3x3x3");
+    let resolution: u32 = arg(2, "64").parse()?;
+    let size = arg(3, "256x256");
+    let (width, height) = size.split_once('x').ok_or("size: WIDTHxHEIGHT")?;
+    let size: (u32, u32) = (width.parse()?, height.parse()?);
+    let camera_name = arg(4, "default");
+    let out = PathBuf::from(arg(5, "docs/glossy"));
+    let name = arg(6, "cornell");
+    let roughnesses: Vec<f32> = if args.len() > 7 {
+        args[7..]
+            .iter()
+            .map(|r| r.parse())
+            .collect::<Result<_, _>>()?
+    } else {
+        vec![0.1, 0.3, 0.6]
+    };
+    std::fs::create_dir_all(&out)?;
+
+    let scene = Scene::open(&scene_spec)?;
+    let probes = ProbeSet::from_spec(&probes_spec, &scene)?;
+    let grid = ProbeGrid::detect(&probes.positions).ok_or("the probes must form a regular grid")?;
+    let camera = if camera_name == "default" {
+        scene.default_camera()
+    } else {
+        find_camera(&scene, &camera_name)?
+    };
+    let settings = |roughness: f32| ViewSettings {
+        width: size.0,
+        height: size.1,
+        rays_per_pixel: REFERENCE_RPP,
+        roughness,
+        shading_samples: 2,
+        ..ViewSettings::default()
+    };
+    let (mut device, fallback) = Device::open(false)?;
+    if let Some(why) = fallback {
+        println!("no GPU ({why}): the CPU twin traces");
+    }
+    let gbuffer = render_gbuffer(&scene, &camera, size.0, size.1)?;
+
+    let mut field = None;
+    let mut baked = None;
+    let mut panels: Vec<[Image; 3]> = Vec::new();
+    println!(
+        "{scene_spec}: {} probes at {resolution}², {}×{} from {camera_name}, {}",
+        probes.positions.len(),
+        size.0,
+        size.1,
+        device.describe()
+    );
+    println!(
+        "| roughness | image | rays | MSE vs reference | FLIP vs reference | MSE vs probes 64 rpp | trace ms | rays ms (CPU) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for &roughness in &roughnesses {
+        let start = Instant::now();
+        let view = EvalView::render(&scene, camera.clone(), settings(roughness), &|_, _| {})?;
+        let reference_seconds = start.elapsed().as_secs_f64();
+        if baked.is_none() {
+            let start = Instant::now();
+            let (bake, _) = bake_for_view(
+                &scene,
+                &probes.positions,
+                resolution,
+                Sampling::default(),
+                &view,
+                &|_, _| {},
+            )?;
+            let bake_seconds = start.elapsed().as_secs_f64();
+            let index = build_index(&scene, &probes.positions, 7, Some(grid), 0)?;
+            let selection = Selection::Grid.of(&index).ok_or("grid selection")?;
+            let start = Instant::now();
+            field = Some(device.upload_with(
+                &light_field(&bake),
+                &selection,
+                &FieldOptions {
+                    glossy_levels: GLOSSY_LEVELS,
+                    ..FieldOptions::default()
+                },
+            )?);
+            println!(
+                "bake {bake_seconds:.1} s; upload with {GLOSSY_LEVELS} glossy levels {:.2} s",
+                start.elapsed().as_secs_f64()
+            );
+            baked = Some(bake);
+        }
+        let field = field.as_ref().ok_or("uploaded")?;
+        let reference = &view.reference_image;
+        let floor =
+            tonemapped_mse(&half_image(&view, 0, size)?, &half_image(&view, 1, size)?) / 4.0;
+        println!(
+            "reference {reference_seconds:.1} s, noise floor (even/odd rays) {floor:.2e}, shading noise {:.2e}",
+            view.reference_noise.noise
+        );
+
+        let plain = TraceOptions::default();
+        let (converged, converged_ms) =
+            timed_image(&mut device, field, &view.rays, &plain, size, 1)?;
+        let start = Instant::now();
+        let stochastic_rays =
+            reflection_rays(&gbuffer, Reflection::Ggx { roughness }, STOCHASTIC_RPP, 1)?;
+        let stochastic_rays_ms = start.elapsed().as_secs_f64() * 1e3;
+        let (stochastic, stochastic_ms) =
+            timed_image(&mut device, field, &stochastic_rays, &plain, size, 3)?;
+        let start = Instant::now();
+        let filtered_rays = filtered_reflection_rays(&gbuffer, roughness)?;
+        let filtered_rays_ms = start.elapsed().as_secs_f64() * 1e3;
+        let cone = TraceOptions {
+            glossy_roughness: roughness,
+            ..TraceOptions::default()
+        };
+        let (filtered, filtered_ms) =
+            timed_image(&mut device, field, &filtered_rays, &cone, size, 3)?;
+        for (label, image, rays, ms, rays_ms) in [
+            (
+                "filtered 1 rpp",
+                &filtered,
+                filtered_rays.len(),
+                filtered_ms,
+                Some(filtered_rays_ms),
+            ),
+            (
+                "stochastic 16 rpp",
+                &stochastic,
+                stochastic_rays.len(),
+                stochastic_ms,
+                Some(stochastic_rays_ms),
+            ),
+            (
+                "probes 64 rpp",
+                &converged,
+                view.rays.len(),
+                converged_ms,
+                None,
+            ),
+        ] {
+            let (_, mean_flip) = flip(image, reference)?;
+            println!(
+                "| {roughness} | {label} | {rays} | {:.3e} | {mean_flip:.4} | {:.3e} | {ms:.1} | {} |",
+                tonemapped_mse(image, reference),
+                tonemapped_mse(image, &converged),
+                rays_ms.map_or("–".to_owned(), |m| format!("{m:.1}")),
+            );
+        }
+        println!(
+            "| {roughness} | filtered / stochastic time | | | | | {:.3} | |",
+            filtered_ms / stochastic_ms
+        );
+        panels.push([filtered, stochastic, reference.clone()]);
+    }
+
+    // The picture: a row per roughness, filtered | stochastic | reference, 4-pixel gaps.
+    let gap = 4u32;
+    let (w, h) = size;
+    let rows = panels.len() as u32;
+    let mut picture = Image::new(3 * w + 2 * gap, rows * h + (rows - 1) * gap);
+    let exposure = panels.last().map_or(1.0, |row| row[2].auto_exposure());
+    for (row, images) in panels.iter().enumerate() {
+        for (column, image) in images.iter().enumerate() {
+            for y in 0..h {
+                for x in 0..w {
+                    let px = column as u32 * (w + gap) + x;
+                    let py = row as u32 * (h + gap) + y;
+                    picture.rgb[(py * picture.width + px) as usize] =
+                        image.rgb[(y * w + x) as usize];
+                }
+            }
+        }
+    }
+    let path = out.join(format!("{name}.png"));
+    picture.save_png_with_exposure(&path, exposure)?;
+    println!(
+        "wrote {} (rows: roughness {roughnesses:?}; columns: filtered 1 rpp | stochastic 16 rpp | reference)",
+        path.display()
+    );
+    Ok(())
+}

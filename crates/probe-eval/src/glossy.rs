@@ -1,0 +1,109 @@
+//! Filtered glossy reflections (issue 14, item 2): one cone ray per pixel instead of many GGX
+//! samples. The ray leaves along the mirror direction; the tracer reads its radiance from the
+//! probes' prefiltered levels ([`probe_trace_gpu::TraceOptions::glossy_roughness`]); the
+//! pixel weighs it with the lobe's directional albedo, the mean weight of
+//! [`probe_capture::reflection_rays`]' GGX samples (Smith's `G1` under visible-normal
+//! sampling, Fresnel 1), which this module integrates by a fixed quadrature (no noise).
+
+use glam::Vec3;
+use probe_capture::{EvaluationRay, GBuffer, RenderError, SurfaceResponse, specular_albedo};
+use probe_scene::Ray;
+
+/// Prefiltered glossy levels a filtered trace uploads
+/// ([`probe_trace_gpu::FieldOptions::glossy_levels`]; down to 2×2 at 128²).
+pub const GLOSSY_LEVELS: u32 = 6;
+
+/// Entries of the albedo table over the view cosine `μ ∈ [0, 1]`.
+const TABLE: usize = 64;
+
+/// The directional albedo of a GGX lobe with perceptual `roughness` (`α = roughness²`) seen at
+/// view cosine `cos_view`, with Fresnel 1: the expected weight of one
+/// [`probe_capture::reflection_rays`] sample (`G1` of the reflected direction, 0 below the
+/// surface); probe-capture's [`specular_albedo`] quadrature with a white `F0`.
+pub fn ggx_albedo(roughness: f32, cos_view: f32) -> f32 {
+    let lobe = SurfaceResponse {
+        diffuse: Vec3::ZERO,
+        f0: Vec3::ONE,
+        roughness,
+    };
+    specular_albedo(&lobe, cos_view.clamp(1e-4, 1.0)).x
+}
+
+/// One filtered reflection ray per G-buffer pixel that hits a front face (or a double-sided
+/// surface): the mirror direction about the shading normal, weighted by [`ggx_albedo`] at
+/// the pixel's view cosine (a table of 64 cosines, linearly interpolated). Trace them with
+/// `TraceOptions::glossy_roughness = roughness` through a field uploaded with glossy levels
+/// and accumulate as [`probe_capture::accumulate_rays`] does. Pixels whose mirror direction
+/// falls below the geometric surface get no ray.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for a `roughness` outside `(0, 1]`.
+pub fn filtered_reflection_rays(
+    gbuffer: &GBuffer,
+    roughness: f32,
+) -> Result<Vec<EvaluationRay>, RenderError> {
+    if !(roughness > 0.0 && roughness <= 1.0) {
+        return Err(RenderError::InvalidSetting {
+            parameter: "roughness",
+            value: roughness.to_string(),
+            reason: "must lie in (0, 1]",
+        });
+    }
+    let table: Vec<f32> = (0..TABLE)
+        .map(|i| ggx_albedo(roughness, i as f32 / (TABLE - 1) as f32))
+        .collect();
+    let albedo = |mu: f32| {
+        let x = mu.clamp(0.0, 1.0) * (TABLE - 1) as f32;
+        let i = (x.floor() as usize).min(TABLE - 2);
+        let f = x - i as f32;
+        table[i] * (1.0 - f) + table[i + 1] * f
+    };
+    let mut rays = Vec::new();
+    for (pixel, sample) in gbuffer.pixels.iter().enumerate() {
+        let Some(s) = sample.filter(|s| !s.back_face) else {
+            continue;
+        };
+        let n = s.shading_normal;
+        let v = s.towards_camera;
+        let direction = (2.0 * n.dot(v) * n - v).normalize();
+        if direction.dot(s.geometric_normal) <= 0.0 {
+            continue;
+        }
+        let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+        rays.push(EvaluationRay {
+            pixel: pixel as u32,
+            origin: ray.origin,
+            direction: ray.direction,
+            weight: albedo(n.dot(v)),
+        });
+    }
+    Ok(rays)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use probe_capture::{Reflection, reflection_rays, render_gbuffer};
+    use probe_scene::Scene;
+
+    /// The quadrature albedo is the mean weight of many GGX samples of the same pixels.
+    #[test]
+    fn albedo_is_the_mean_sample_weight() {
+        let scene = Scene::open("builtin:cornell").unwrap();
+        let camera = scene.default_camera();
+        let gbuffer = render_gbuffer(&scene, &camera, 24, 24).unwrap();
+        for roughness in [0.1, 0.3, 0.6] {
+            let filtered = filtered_reflection_rays(&gbuffer, roughness).unwrap();
+            let sampled = reflection_rays(&gbuffer, Reflection::Ggx { roughness }, 256, 3).unwrap();
+            let total =
+                |rays: &[EvaluationRay]| rays.iter().map(|r| f64::from(r.weight)).sum::<f64>();
+            let (a, b) = (total(&filtered), total(&sampled));
+            assert!(
+                (a - b).abs() < 0.01 * b,
+                "roughness {roughness}: {a} vs {b}"
+            );
+        }
+        assert!(filtered_reflection_rays(&gbuffer, 0.0).is_err());
+        assert!((ggx_albedo(0.01, 0.7) - 1.0).abs() < 1e-3);
+    }
+}
