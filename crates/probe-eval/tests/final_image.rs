@@ -85,6 +85,10 @@ fn gpu_and_cpu_twin_agree_on_the_final_image() {
     }
     let share = close as f64 / a.len() as f64;
     let mean = total / a.len() as f64;
+    eprintln!(
+        "GPU against CPU twin: {:.2} % of pixels within 1e-3, mean difference {mean:.2e}",
+        100.0 * share
+    );
     assert!(
         share >= 0.995,
         "only {:.2} % of pixels agree",
