@@ -227,17 +227,64 @@ fn rays_of_front_pixels(
 
 /// The specular lobe's directional albedo at `n·v`: the mean of the estimator
 /// [`specular_rays`] uses (Fresnel at the sampled microfacet × Smith's masking of the
-/// reflected direction, over GGX's visible normals), by a fixed 16 × 16 quadrature; Fresnel
-/// at `n·v` for mirrors. What a prefiltered lookup multiplies its radiance by (the split-sum
-/// approximation: the lobe's radiance and its albedo taken apart).
+/// reflected direction, over GGX's visible normals); Fresnel at `n·v` for mirrors. What a
+/// prefiltered lookup multiplies its radiance by (the split-sum approximation: the lobe's
+/// radiance and its albedo taken apart). Schlick's Fresnel is linear in `F0`, so the albedo is
+/// `F0·A + B` with `A` and `B` depending on roughness and `n·v` only (Karis 2013): they come
+/// from a table of 33 × 33 entries, each a 16 × 16 midpoint quadrature, built once and read
+/// bilinearly.
 pub fn specular_albedo(response: &SurfaceResponse, n_dot_v: f32) -> Vec3 {
     if response.roughness < MIRROR_ROUGHNESS {
         return fresnel_schlick(response.f0, n_dot_v);
     }
+    let (a, b) = albedo_terms(response.roughness, n_dot_v);
+    response.f0 * a + Vec3::splat(b)
+}
+
+/// Entries per side of the split-sum table (roughness and `n·v` from 0 to 1).
+const ALBEDO_TABLE: usize = 33;
+
+/// `(A, B)` of [`specular_albedo`], read bilinearly from the table.
+fn albedo_terms(roughness: f32, n_dot_v: f32) -> (f32, f32) {
+    static TABLE: std::sync::OnceLock<Vec<(f32, f32)>> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        let last = (ALBEDO_TABLE - 1) as f32;
+        let mut entries = Vec::with_capacity(ALBEDO_TABLE * ALBEDO_TABLE);
+        for r in 0..ALBEDO_TABLE {
+            for c in 0..ALBEDO_TABLE {
+                entries.push(albedo_quadrature(r as f32 / last, c as f32 / last));
+            }
+        }
+        entries
+    });
+    let last = (ALBEDO_TABLE - 1) as f32;
+    let (x, y) = (
+        roughness.clamp(0.0, 1.0) * last,
+        n_dot_v.clamp(0.0, 1.0) * last,
+    );
+    let (r0, c0) = (
+        (x.floor() as usize).min(ALBEDO_TABLE - 2),
+        (y.floor() as usize).min(ALBEDO_TABLE - 2),
+    );
+    let (fr, fc) = (x - r0 as f32, y - c0 as f32);
+    let at = |r: usize, c: usize| table[r * ALBEDO_TABLE + c];
+    let lerp =
+        |p: (f32, f32), q: (f32, f32), t: f32| (p.0 + (q.0 - p.0) * t, p.1 + (q.1 - p.1) * t);
+    lerp(
+        lerp(at(r0, c0), at(r0, c0 + 1), fc),
+        lerp(at(r0 + 1, c0), at(r0 + 1, c0 + 1), fc),
+        fr,
+    )
+}
+
+/// `A = ∫ (1 − k) G1` and `B = ∫ k G1`, `k = (1 − v·m)⁵`, over GGX's visible normals by a
+/// 16 × 16 midpoint quadrature.
+fn albedo_quadrature(roughness: f32, n_dot_v: f32) -> (f32, f32) {
+    let n_dot_v = n_dot_v.max(1e-4);
     let view = Vec3::new((1.0 - n_dot_v * n_dot_v).max(0.0).sqrt(), 0.0, n_dot_v);
-    let alpha = (response.roughness * response.roughness).max(1e-4);
+    let alpha = (roughness * roughness).max(1e-4);
     const STEPS: u32 = 16;
-    let mut sum = Vec3::ZERO;
+    let (mut a, mut b) = (0.0f32, 0.0f32);
     for i in 0..STEPS {
         for j in 0..STEPS {
             let u = glam::Vec2::new(
@@ -247,12 +294,15 @@ pub fn specular_albedo(response: &SurfaceResponse, n_dot_v: f32) -> Vec3 {
             let m = evaluation::sample_ggx_vndf(view, alpha, u);
             let l = 2.0 * view.dot(m) * m - view;
             if l.z > 0.0 {
-                sum += fresnel_schlick(response.f0, view.dot(m).max(0.0))
-                    * evaluation::smith_g1(alpha, l.z);
+                let k = (1.0 - view.dot(m).clamp(0.0, 1.0)).powi(5);
+                let g = evaluation::smith_g1(alpha, l.z);
+                a += (1.0 - k) * g;
+                b += k * g;
             }
         }
     }
-    sum / (STEPS * STEPS) as f32
+    let n = (STEPS * STEPS) as f32;
+    (a / n, b / n)
 }
 
 /// One specular ray per front-facing pixel for a prefiltered lookup: along the GGX lobe's
@@ -550,7 +600,10 @@ mod tests {
         assert_eq!(dielectric.f0, Vec3::splat(DIELECTRIC_F0));
         let specular = specular_albedo(&dielectric, 1.0).x;
         // Rough (α = 1): single-scattering GGX loses much to masking (E ≈ 0.31 F0 here).
-        assert!(specular > 0.2 * DIELECTRIC_F0 && specular < DIELECTRIC_F0, "{specular}");
+        assert!(
+            specular > 0.2 * DIELECTRIC_F0 && specular < DIELECTRIC_F0,
+            "{specular}"
+        );
         assert!((dielectric.diffuse.x - 0.5 * (1.0 - specular)).abs() < 1e-6);
     }
 }

@@ -49,7 +49,6 @@ use probe_place::{
         MedialParams, RegularGrid, SdfParams, VoxelGrid, VoxelState, inside_geometry,
         medial_candidates, sdf_candidates,
     },
-    irradiance::LightingOracle,
     minimal::{CoverParams, minimal_cover},
 };
 use probe_scene::{Camera, Hit, Material, Ray, Scene, Triangle};
@@ -1087,7 +1086,9 @@ fn leak(r: &mut Recorder, cx: &mut Context<'_>, name: &str) -> Result<(), CaseEr
             .iter()
             .map(|p| {
                 let n = Vec3::from(p.normal);
-                oracle.irradiance_towards(Vec3::from(p.position) + n * 1e-3, n)
+                // Bakes' irradiance holds indirect light only (the room's light is
+                // added by direct lighting): compare with the indirect irradiance.
+                oracle.indirect_irradiance_towards(Vec3::from(p.position) + n * 1e-3, n)
             })
             .collect()
     };

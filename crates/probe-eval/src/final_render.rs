@@ -19,7 +19,7 @@
 //! use probe_scene::Scene;
 //!
 //! let scene = Scene::builtin("cornell")?;
-//! let baked = ProbeBake::load("cornell-bake".as_ref(), Some(&scene))?;
+//! let baked = ProbeBake::load("cornell-bake", Some(&scene))?;
 //! let camera = scene.cameras()[0].clone();
 //! let gbuffer = render_gbuffer(&scene, &camera, 320, 180)?;
 //! let index = build_index(&scene, baked.positions(), 7, None, 0)?;

@@ -54,6 +54,28 @@ impl LightingOracle for CaptureOracle<'_> {
     }
 
     fn irradiance_towards(&self, point: Vec3, normal: Vec3) -> Vec3 {
+        self.integrate(point, normal, &|ray, rng| self.shader.trace(ray, rng).1)
+    }
+}
+
+impl CaptureOracle<'_> {
+    /// The indirect irradiance on a small surface at `point` facing `normal`: as
+    /// [`LightingOracle::irradiance_towards`] without the emission of the light sources seen
+    /// directly ([`Shader::reflected_radiance`]), which is what bakes' irradiance probes hold.
+    pub fn indirect_irradiance_towards(&self, point: Vec3, normal: Vec3) -> Vec3 {
+        self.integrate(point, normal, &|ray, rng| {
+            self.shader.reflected_radiance(ray, rng)
+        })
+    }
+
+    /// `π ×` the mean of `radiance` over `samples` cosine-distributed rays, seeded by the
+    /// point and normal.
+    fn integrate(
+        &self,
+        point: Vec3,
+        normal: Vec3,
+        radiance: &dyn Fn(&Ray, &mut Rng) -> Vec3,
+    ) -> Vec3 {
         let Some(normal) = normal.try_normalize() else {
             return Vec3::ZERO;
         };
@@ -75,8 +97,7 @@ impl LightingOracle for CaptureOracle<'_> {
             let direction = tangent * (r * phi.cos())
                 + bitangent * (r * phi.sin())
                 + normal * (1.0 - u.x).max(0.0).sqrt();
-            let (_, radiance) = self.shader.trace(&Ray::new(point, direction), &mut rng);
-            sum += radiance;
+            sum += radiance(&Ray::new(point, direction), &mut rng);
         }
         sum * (std::f32::consts::PI / self.samples as f32)
     }
