@@ -63,8 +63,125 @@ impl Lcg {
     }
 }
 
+/// The property for one probe set (`seed`) and options; an error names the first pair whose
+/// difference does not shrink with the distance between its points.
+fn blend_is_continuous(
+    seed: u64,
+    visibility: bool,
+    backface: bool,
+    exponent: f32,
+) -> Result<(), TestCaseError> {
+    let mut rng = Lcg(seed);
+    // A 3×3×3 grid 1 m apart (2 m across), each probe moved at random by up to 0.2 m per
+    // axis: random, and not too degenerate.
+    let positions: Vec<Vec3> = (0..27)
+        .map(|i| {
+            let cell = Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32);
+            cell + (Vec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * 0.4
+        })
+        .collect();
+    let count = positions.len();
+    let Ok(tets) = Tetrahedralization::build(&positions) else {
+        return Ok(());
+    };
+    // Slivers (random points make them) have f32 barycentric coordinates off by the
+    // rounding of the position over the sliver's height: skip sets with any.
+    if smallest_height(&tets) < MIN_HEIGHT {
+        return Err(TestCaseError::reject("a sliver"));
+    }
+    let irradiance_texels = ((IRRADIANCE_RESOLUTION + 2) * (IRRADIANCE_RESOLUTION + 2)) as usize;
+    let moments_texels = ((MOMENTS_RESOLUTION + 2) * (MOMENTS_RESOLUTION + 2)) as usize;
+    let colours: Vec<Vec3> = (0..count)
+        .map(|_| Vec3::new(rng.next(), rng.next(), rng.next()))
+        .collect();
+    let irradiance: Vec<Vec3> = colours
+        .iter()
+        .flat_map(|&c| std::iter::repeat_n(c, irradiance_texels))
+        .collect();
+    // Every probe sees a surface at a random mean distance with a little spread, so the
+    // Chebyshev test really occludes points beyond it.
+    let moments: Vec<Vec2> = (0..count)
+        .flat_map(|_| {
+            let mean = 0.3 + 1.5 * rng.next();
+            std::iter::repeat_n(Vec2::new(mean, mean * mean + 0.01), moments_texels)
+        })
+        .collect();
+    let field = IrradianceField {
+        positions: &positions,
+        irradiance_resolution: IRRADIANCE_RESOLUTION,
+        irradiance: &irradiance,
+        moments_resolution: MOMENTS_RESOLUTION,
+        moments: &moments,
+    };
+    let options = DiffuseOptions {
+        visibility,
+        backface,
+        visibility_exponent: exponent,
+        ..DiffuseOptions::default()
+    };
+    let mut tracer = CpuTracer::new();
+    let uploaded = tracer
+        .upload_irradiance(&field, &Interpolation::Delaunay(&tets))
+        .unwrap();
+    // Pairs straddling the plane of a random face of a random tetrahedron, at a point of
+    // that plane inside the face or beyond its edges (outside the hull when the face is a
+    // hull face, or when the point is far enough out).
+    let records = tets.tetrahedra();
+    let mut pairs = Vec::new();
+    for _ in 0..64 {
+        let record = &records[(rng.next() * records.len() as f32) as usize % records.len()];
+        let face = (rng.next() * 4.0) as usize % 4;
+        let corners: Vec<Vec3> = (0..4)
+            .filter(|&k| k != face)
+            .map(|k| positions[record.vertices[k] as usize])
+            .collect();
+        let (u, v) = (rng.next() * 3.0 - 1.0, rng.next() * 3.0 - 1.0);
+        let on_plane = corners[0] + (corners[1] - corners[0]) * u + (corners[2] - corners[0]) * v;
+        let normal = (corners[1] - corners[0])
+            .cross(corners[2] - corners[0])
+            .normalize();
+        let shading_normal = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5)
+            .try_normalize()
+            .unwrap_or(Vec3::Y);
+        for half in [WIDE, NARROW] {
+            pairs.push(ShadingPoint::new(on_plane - normal * half, shading_normal));
+            pairs.push(ShadingPoint::new(on_plane + normal * half, shading_normal));
+        }
+    }
+    let out = tracer.shade_diffuse(&uploaded, &pairs, &options).unwrap();
+    let spread = colours.iter().fold(0.0f32, |m, c| m.max(c.max_element()));
+    for (k, four) in out.results.chunks(4).enumerate() {
+        let wide = (four[0].irradiance - four[1].irradiance)
+            .abs()
+            .max_element();
+        let narrow = (four[2].irradiance - four[3].irradiance)
+            .abs()
+            .max_element();
+        prop_assert!(
+            narrow <= wide / 16.0 + ROUNDING * spread,
+            "pair {} at {:?}: |Δ| {} at ε = {} and {} at ε = {} ({} vs {})",
+            k,
+            pairs[4 * k + 2].position,
+            wide,
+            WIDE,
+            narrow,
+            NARROW,
+            four[2].irradiance,
+            four[3].irradiance
+        );
+    }
+    Ok(())
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, max_global_rejects: 8192, ..ProptestConfig::default() })]
+    // A fixed seed: the same cases on every run (the project's rule), 256 of them.
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        max_global_rejects: 8192,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(14),
+        failure_persistence: None,
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn blend_is_continuous_across_faces(
@@ -73,97 +190,16 @@ proptest! {
         backface in any::<bool>(),
         exponent in 1.0f32..4.0,
     ) {
-        let mut rng = Lcg(seed);
-        // A 3×3×3 grid 1 m apart (2 m across), each probe moved at random by up to 0.2 m per
-        // axis: random, and not too degenerate.
-        let positions: Vec<Vec3> = (0..27)
-            .map(|i| {
-                let cell = Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32);
-                cell + (Vec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * 0.4
-            })
-            .collect();
-        let count = positions.len();
-        let Ok(tets) = Tetrahedralization::build(&positions) else {
-            return Ok(());
-        };
-        // Slivers (random points make them) have f32 barycentric coordinates off by the
-        // rounding of the position over the sliver's height: skip sets with any.
-        prop_assume!(smallest_height(&tets) >= MIN_HEIGHT);
-        let irradiance_texels = ((IRRADIANCE_RESOLUTION + 2) * (IRRADIANCE_RESOLUTION + 2)) as usize;
-        let moments_texels = ((MOMENTS_RESOLUTION + 2) * (MOMENTS_RESOLUTION + 2)) as usize;
-        let colours: Vec<Vec3> = (0..count)
-            .map(|_| Vec3::new(rng.next(), rng.next(), rng.next()))
-            .collect();
-        let irradiance: Vec<Vec3> = colours
-            .iter()
-            .flat_map(|&c| std::iter::repeat_n(c, irradiance_texels))
-            .collect();
-        // Every probe sees a surface at a random mean distance with a little spread, so the
-        // Chebyshev test really occludes points beyond it.
-        let moments: Vec<Vec2> = (0..count)
-            .flat_map(|_| {
-                let mean = 0.3 + 1.5 * rng.next();
-                std::iter::repeat_n(Vec2::new(mean, mean * mean + 0.01), moments_texels)
-            })
-            .collect();
-        let field = IrradianceField {
-            positions: &positions,
-            irradiance_resolution: IRRADIANCE_RESOLUTION,
-            irradiance: &irradiance,
-            moments_resolution: MOMENTS_RESOLUTION,
-            moments: &moments,
-        };
-        let options = DiffuseOptions {
-            visibility,
-            backface,
-            visibility_exponent: exponent,
-            ..DiffuseOptions::default()
-        };
-        let mut tracer = CpuTracer::new();
-        let uploaded = tracer
-            .upload_irradiance(&field, &Interpolation::Delaunay(&tets))
-            .unwrap();
-        // Pairs straddling the plane of a random face of a random tetrahedron, at a point of
-        // that plane inside the face or beyond its edges (outside the hull when the face is a
-        // hull face, or when the point is far enough out).
-        let records = tets.tetrahedra();
-        let mut pairs = Vec::new();
-        for _ in 0..64 {
-            let record = &records[(rng.next() * records.len() as f32) as usize % records.len()];
-            let face = (rng.next() * 4.0) as usize % 4;
-            let corners: Vec<Vec3> = (0..4)
-                .filter(|&k| k != face)
-                .map(|k| positions[record.vertices[k] as usize])
-                .collect();
-            let (u, v) = (rng.next() * 3.0 - 1.0, rng.next() * 3.0 - 1.0);
-            let on_plane =
-                corners[0] + (corners[1] - corners[0]) * u + (corners[2] - corners[0]) * v;
-            let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]).normalize();
-            let shading_normal = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5)
-                .try_normalize()
-                .unwrap_or(Vec3::Y);
-            for half in [WIDE, NARROW] {
-                pairs.push(ShadingPoint::new(on_plane - normal * half, shading_normal));
-                pairs.push(ShadingPoint::new(on_plane + normal * half, shading_normal));
-            }
-        }
-        let out = tracer.shade_diffuse(&uploaded, &pairs, &options).unwrap();
-        let spread = colours.iter().fold(0.0f32, |m, c| m.max(c.max_element()));
-        for (k, four) in out.results.chunks(4).enumerate() {
-            let wide = (four[0].irradiance - four[1].irradiance).abs().max_element();
-            let narrow = (four[2].irradiance - four[3].irradiance).abs().max_element();
-            prop_assert!(
-                narrow <= wide / 16.0 + ROUNDING * spread,
-                "pair {} at {:?}: |Δ| {} at ε = {} and {} at ε = {} ({} vs {})",
-                k,
-                pairs[4 * k + 2].position,
-                wide,
-                WIDE,
-                narrow,
-                NARROW,
-                four[2].irradiance,
-                four[3].irradiance
-            );
-        }
+        blend_is_continuous(seed, visibility, backface, exponent)?;
     }
+}
+
+/// A case a randomly seeded run of the property found (CI, 2026-12-02): a pair outside the
+/// hull, 0.5 m below the probes, whose difference stays 0.042 at ε = 2e-6 (a jump, not
+/// rounding). Not fixed yet: the nearest-hull-point search or the walk's step cap is the
+/// suspect. Run it with `cargo test -p probe-trace-gpu --test diffuse_continuity -- --ignored`.
+#[test]
+#[ignore = "known discontinuity outside the hull, not fixed yet (see the doc comment)"]
+fn known_discontinuity_outside_the_hull() {
+    blend_is_continuous(10896597016308689907, true, false, 2.9141228).unwrap();
 }
