@@ -145,6 +145,8 @@ pub struct ProbeFinal {
 const WARM_UP_ITEMS: usize = 256;
 
 /// Renders the final image of `gbuffer`'s view through `baked`'s probes (see the module).
+/// `index` is [`crate::pipeline::build_index`] of `baked`'s positions (its tetrahedralization
+/// blends the diffuse part).
 ///
 /// # Errors
 /// [`EvalError::InvalidSetting`] when the options ask for what the probes cannot give (a
@@ -175,11 +177,16 @@ pub fn render_final(
                 reason: "the probes are not a full regular grid; blend by Delaunay".into(),
             })?)
         }
-        DiffuseBlend::Delaunay => {
-            tetrahedra = probe_index::Tetrahedralization::build(baked.positions())
-                .map_err(probe_index::IndexError::from)?;
-            Interpolation::Delaunay(&tetrahedra)
-        }
+        // The index already holds the probes' tetrahedralization; a set that spans no
+        // volume has none, and building it gives the error that says why.
+        DiffuseBlend::Delaunay => match index.index.tetrahedralization.as_ref() {
+            Some(built) => Interpolation::Delaunay(built),
+            None => {
+                tetrahedra = probe_index::Tetrahedralization::build(baked.positions())
+                    .map_err(probe_index::IndexError::from)?;
+                Interpolation::Delaunay(&tetrahedra)
+            }
+        },
     };
     let irradiance = device.upload_irradiance(baked, &interpolation)?;
     let mut pixels = Vec::new();

@@ -469,6 +469,41 @@ fn glossy_sample(
     sum
 }
 
+/// The radiance a probe's answer gives: at a HIT, the texels that show the hit point
+/// (`from_probe`, the hit relative to the probe); otherwise the sky texel in the ray's
+/// `direction`.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one probe's answer and where to read it"
+)]
+fn answer_radiance(
+    field: &PackedField,
+    params: &TraceParams,
+    probe: u32,
+    answer: &ProbeAnswer,
+    from_probe: Vec3,
+    direction: Vec3,
+    fetches: &mut u32,
+) -> [f32; 3] {
+    if answer.code == HIT {
+        glossy_radiance(
+            field,
+            params,
+            probe,
+            from_probe,
+            false,
+            answer.cell,
+            answer.t,
+            fetches,
+        )
+    } else {
+        let cell = direction_cell(field.resolution, direction);
+        glossy_radiance(
+            field, params, probe, direction, true, cell, answer.t, fetches,
+        )
+    }
+}
+
 /// The radiance a ray's cone gathers where it ends (`TraceOptions::glossy_roughness`): with
 /// no glossy levels in use, [`filtered_radiance`]; else the levels around
 /// `λ = log2(φ_p / texel_angle(N))`, linearly interpolated, where `φ_p` is the cone's
@@ -645,71 +680,41 @@ pub(crate) fn trace_ray<O: RayObserver>(
             // The relaxed march's first place where the ray may meet what the probe saw; if
             // it sees the ray leave, the radiance in the ray's direction.
             let at = field.position(probe);
-            record.radiance = if answer.code == HIT {
+            if answer.code == HIT {
                 let hit = origin + direction * answer.t;
                 record.t = answer.t;
                 record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
-                glossy_radiance(
-                    field,
-                    params,
-                    probe,
-                    hit - at,
-                    false,
-                    answer.cell,
-                    answer.t,
-                    &mut fetches,
-                )
-            } else {
-                let cell = direction_cell(field.resolution, direction);
-                glossy_radiance(
-                    field,
-                    params,
-                    probe,
-                    direction,
-                    true,
-                    cell,
-                    answer.t,
-                    &mut fetches,
-                )
-            };
+            }
+            record.radiance = answer_radiance(
+                field,
+                params,
+                probe,
+                &answer,
+                origin + direction * answer.t - at,
+                direction,
+                &mut fetches,
+            );
             record.probe = probe;
             break;
         }
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         if answer.code == HIT || answer.code == MISS {
             let hit = origin + direction * answer.t;
-            let (normal, radiance) = if answer.code == HIT {
-                let v = hit - field.position(probe);
-                (
-                    crate::surface::unpack_normal(answer.normal),
-                    glossy_radiance(
-                        field,
-                        params,
-                        probe,
-                        v,
-                        false,
-                        answer.cell,
-                        answer.t,
-                        &mut fetches,
-                    ),
-                )
+            let normal = if answer.code == HIT {
+                crate::surface::unpack_normal(answer.normal)
             } else {
-                let cell = direction_cell(field.resolution, direction);
-                (
-                    Vec3::ZERO,
-                    glossy_radiance(
-                        field,
-                        params,
-                        probe,
-                        direction,
-                        true,
-                        cell,
-                        answer.t,
-                        &mut fetches,
-                    ),
-                )
+                Vec3::ZERO
             };
+            let radiance = answer_radiance(
+                field,
+                params,
+                probe,
+                &answer,
+                hit - field.position(probe),
+                direction,
+                &mut fetches,
+            );
             record.status = answer.code;
             record.t = answer.t;
             record.position = hit.to_array();
