@@ -109,6 +109,17 @@ pub enum UploadError {
         /// Probes the structure covers.
         actual: usize,
     },
+    /// The tetrahedralization's convex hull does not match its tetrahedra (a hull triangle
+    /// names a tetrahedron, face or neighbouring triangle that does not exist, or an open
+    /// tetrahedron face has no hull triangle). Fix: build it with
+    /// `probe_index::Tetrahedralization::build` and pass it unchanged.
+    #[error("hull triangle {hull_face} of the tetrahedralization: {reason}")]
+    BadHull {
+        /// The hull triangle (or, for an open face without one, the tetrahedron).
+        hull_face: usize,
+        /// What does not match.
+        reason: &'static str,
+    },
     /// The selection structure names a probe that does not exist. Fix: rebuild it from this
     /// probe set.
     #[error("the {selection} names probe {probe}, but there are only {probe_count} probes")]

@@ -3,7 +3,9 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec2, Vec3};
-use probe_index::{GridParams, NO_PROBE, ProbeGrid, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader};
+use probe_index::{
+    GridParams, NO_NEIGHBOUR, NO_PROBE, ProbeGrid, SVO_LEAF_BIT, SVO_PACKED_BIT, SvoHeader,
+};
 use probe_octa::OctaLayout;
 
 use crate::error::UploadError;
@@ -880,8 +882,9 @@ pub(crate) struct PackedIrradiance {
     pub moments: Vec<[f32; 2]>,
     pub kind: u32,
     pub grid: GridParams,
-    /// Tetrahedra (20 words each), then a tetrahedron per probe, then k-d tree nodes, then
-    /// the convex hull's triangles ([`HULL_WORDS`] each).
+    /// Tetrahedra (20 words each; an open face's neighbour slot holds [`HULL_FACE`] and its
+    /// hull triangle), then a tetrahedron per probe, then k-d tree nodes, then the convex
+    /// hull's triangles ([`HULL_WORDS`] each).
     pub words: Vec<u32>,
     pub tets: u32,
     pub tet_count: u32,
@@ -894,8 +897,21 @@ pub(crate) struct PackedIrradiance {
 
 /// Words per convex-hull triangle in [`PackedIrradiance::words`]: the corners `a, b, c` as
 /// `vec4(position, bitcast<f32>(probe))`, then the outward plane `vec4(normal, offset)` with
-/// `dot(normal, x) > offset` beyond the face.
-pub(crate) const HULL_WORDS: usize = 16;
+/// `dot(normal, x) > offset` beyond the face, then the three hull triangles across its edges
+/// (`adjacent[k]` shares the edge opposite corner `k`) and a padding word.
+pub(crate) const HULL_WORDS: usize = 20;
+
+/// Set in a packed tetrahedron's neighbour slot for an open face (a hull triangle): the low
+/// bits are the index of that hull triangle, where the walk starts its search over the hull.
+/// (`probe_index`'s records hold `NO_NEIGHBOUR` there.)
+pub(crate) const HULL_FACE: u32 = 0x8000_0000;
+
+/// Default cap on the moves of the descent over the hull (`DiffuseParams::max_hull_steps`).
+pub(crate) const MAX_HULL_STEPS: u32 = 256;
+
+/// Most hull triangles the descent turns through around one corner before it gives up (and
+/// the scan answers). WGSL mirror `MAX_HULL_FAN` in `gpu/diffuse.wgsl`.
+pub(crate) const MAX_HULL_FAN: u32 = 64;
 
 /// Largest irradiance or moment map resolution accepted.
 const MAX_LOW_RESOLUTION: u32 = 256;
@@ -1012,7 +1028,27 @@ impl PackedIrradiance {
                 )?;
                 packed.hull = packed.words.len() as u32;
                 packed.hull_count = hull.len() as u32;
-                for face in hull {
+                for (h, face) in hull.iter().enumerate() {
+                    let bad = |reason| UploadError::BadHull {
+                        hull_face: h,
+                        reason,
+                    };
+                    if face.adjacent.iter().any(|&n| n as usize >= hull.len()) {
+                        return Err(bad("a neighbouring hull triangle does not exist"));
+                    }
+                    if face.tetrahedron as usize >= records.len() || face.face >= 4 {
+                        return Err(bad("its tetrahedron or face does not exist"));
+                    }
+                    // The open face's neighbour slot names this hull triangle (the walk starts
+                    // its search over the hull there).
+                    let slot = packed.tets as usize
+                        + face.tetrahedron as usize * TET_WORDS
+                        + 4
+                        + face.face as usize;
+                    if packed.words[slot] != NO_NEIGHBOUR {
+                        return Err(bad("its tetrahedron's face is not open"));
+                    }
+                    packed.words[slot] = HULL_FACE | h as u32;
                     for &v in &face.vertices {
                         if v as usize >= probes {
                             return Err(UploadError::ProbeOutOfRange {
@@ -1036,6 +1072,18 @@ impl PackedIrradiance {
                     packed
                         .words
                         .extend([normal.x, normal.y, normal.z, offset].map(f32::to_bits));
+                    packed.words.extend(face.adjacent);
+                    packed.words.push(0);
+                }
+                // Every open face must have been given its hull triangle.
+                for t in 0..records.len() {
+                    let at = packed.tets as usize + t * TET_WORDS + 4;
+                    if packed.words[at..at + 4].contains(&NO_NEIGHBOUR) {
+                        return Err(UploadError::BadHull {
+                            hull_face: t,
+                            reason: "an open face of this tetrahedron has no hull triangle",
+                        });
+                    }
                 }
             }
         }
@@ -1114,7 +1162,9 @@ pub(crate) struct DiffuseParams {
     pub kd_count: u32,
     pub min_weight: f32,
     pub backface: u32,
-    pub pad1: u32,
+    /// Most moves of the descent over the hull before it falls back to the scan of every hull
+    /// triangle (0: always scan).
+    pub max_hull_steps: u32,
 }
 
 /// Method codes shared with the WGSL.
@@ -1381,7 +1431,9 @@ pub(crate) fn diffuse_params(
         kd_count: irradiance.kd_count,
         min_weight: options.min_weight,
         backface: u32::from(options.backface),
-        pad1: 0,
+        // A descent crosses the hull at most once; the cap only guards against cycling where
+        // f32 rounding breaks the strict decrease (then the scan answers).
+        max_hull_steps: MAX_HULL_STEPS,
     })
 }
 

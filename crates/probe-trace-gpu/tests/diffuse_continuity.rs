@@ -195,11 +195,13 @@ proptest! {
 }
 
 /// A case a randomly seeded run of the property found (CI, 2026-12-02): a pair outside the
-/// hull, 0.5 m below the probes, whose difference stays 0.042 at ε = 2e-6 (a jump, not
-/// rounding). Not fixed yet: the nearest-hull-point search or the walk's step cap is the
-/// suspect. Run it with `cargo test -p probe-trace-gpu --test diffuse_continuity -- --ignored`.
+/// hull, 0.5 m below the probes, whose difference stayed 0.042 at ε = 2e-6. The nearest hull
+/// point was chosen by ranking f32 squared distances of candidates that are nearly the same
+/// point (differences of order `(separation)²`): one point of the pair took a hull corner
+/// (probe 11 alone), the other a point 7e-5 along an edge from it (probe 20 weighted 7e-5),
+/// and the visibility weighting (probe 11 nearly occluded, at the `min_weight` floor) turned
+/// that into 6 % of the blend. The descent over the hull decides by first-order region tests.
 #[test]
-#[ignore = "known discontinuity outside the hull, not fixed yet (see the doc comment)"]
 fn known_discontinuity_outside_the_hull() {
     blend_is_continuous(10896597016308689907, true, false, 2.9141228).unwrap();
 }

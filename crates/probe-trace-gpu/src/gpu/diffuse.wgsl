@@ -2,9 +2,11 @@
 // common.wgsl. Step for step the same as src/cpu/diffuse.rs.
 
 const INTERPOLATE_GRID: u32 = 0u;
-const NO_NEIGHBOUR: u32 = 0xffffffffu;
 const TET_WORDS: u32 = 20u;
-const HULL_WORDS: u32 = 16u;
+// src/packed.rs HULL_WORDS, HULL_FACE, MAX_HULL_FAN.
+const HULL_WORDS: u32 = 20u;
+const HULL_FACE: u32 = 0x80000000u;
+const MAX_HULL_FAN: u32 = 64u;
 
 // src/packed.rs DiffuseParams (112 bytes).
 struct DiffuseParams {
@@ -28,7 +30,7 @@ struct DiffuseParams {
     kd_count: u32,
     min_weight: f32,
     backface: u32,
-    pad1: u32,
+    max_hull_steps: u32,
 }
 
 // src/ray.rs ShadingPoint (32 bytes).
@@ -191,40 +193,179 @@ fn closest_on_triangle(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -
     return vec4<f32>(1.0 - v - w, v, w, 1.0);
 }
 
+// One packed hull triangle (src/packed.rs HULL_WORDS): corners, their probes, the outward
+// plane (dot(normal, x) > offset beyond it), the triangles across the edges opposite corners
+// 0, 1, 2.
+struct HullTriangle {
+    a: vec3<f32>,
+    b: vec3<f32>,
+    c: vec3<f32>,
+    probes: vec3<u32>,
+    plane: vec4<f32>,
+    adjacent: vec3<u32>,
+}
+
+fn hull_triangle(h: u32) -> HullTriangle {
+    let at = params.hull + h * HULL_WORDS;
+    return HullTriangle(hull_vec4(at).xyz, hull_vec4(at + 4u).xyz, hull_vec4(at + 8u).xyz,
+        vec3<u32>(words[at + 3u], words[at + 7u], words[at + 11u]), hull_vec4(at + 12u),
+        vec3<u32>(words[at + 16u], words[at + 17u], words[at + 18u]));
+}
+
+fn hull_beyond(t: HullTriangle, x: vec3<f32>) -> bool {
+    return dot(t.plane.xyz, x) - t.plane.w > 0.0;
+}
+
+fn hull_closest(t: HullTriangle, x: vec3<f32>) -> vec4<f32> {
+    return closest_on_triangle(x, t.a, t.b, t.c);
+}
+
+fn hull_distance2(t: HullTriangle, x: vec3<f32>, l: vec4<f32>) -> f32 {
+    let e = x - t.a - (t.b - t.a) * l.y - (t.c - t.a) * l.z;
+    return dot(e, e);
+}
+
+fn set_hull_weights(out: ptr<function, Weights>, t: HullTriangle, l: vec4<f32>) {
+    (*out).probes[0] = t.probes.x;
+    (*out).probes[1] = t.probes.y;
+    (*out).probes[2] = t.probes.z;
+    (*out).w[0] = l.x;
+    (*out).w[1] = l.y;
+    (*out).w[2] = l.z;
+}
+
 // Outside the hull: the weights of the nearest point on the hull (a continuous projection),
-// among the hull triangles x lies beyond. A triangle holding x's projection onto its plane
-// holds the nearest point (the hull lies behind that plane) and ends the search; otherwise
-// the nearest edge or corner point wins (ranking distances there, not everywhere, keeps f32
-// rounding from choosing between nearly coplanar triangles). False when x lies beyond none
-// (rounding at the hull).
-// `out` and `nearest` (its squared distance) hold the best candidate yet.
-fn hull_weights(x: vec3<f32>, out: ptr<function, Weights>, nearest: f32) -> bool {
-    var best = nearest;
-    var found = nearest < 3.4e38;
+// by a descent over the hull triangles from `start` (the one the walk left by); false when it
+// needed more than params.max_hull_steps moves or met an inconsistent hull (then the scan
+// answers). Moves are decided by closest_on_triangle's first-order region tests, never by
+// ranking squared distances of nearly the same point (src/cpu/diffuse.rs hull_descent says
+// why): inside a triangle, done; on an edge, move across it if the triangle there is beyond x
+// and its nearest point is off the shared edge; on a corner, move to the nearest of the
+// triangles around it that are beyond x and whose nearest point is not the corner.
+fn hull_descent(x: vec3<f32>, start: u32, out: ptr<function, Weights>) -> bool {
+    var h = start;
+    var f = hull_triangle(h);
+    var l = hull_closest(f, x);
+    for (var step = 0u; step < params.max_hull_steps; step++) {
+        if (l.w == 1.0) {
+            set_hull_weights(out, f, l);
+            return true;
+        }
+        // The first zero coordinate and the first non-zero one, as on the CPU twin.
+        var zeros = 0u;
+        var k = 3u;
+        var m = 3u;
+        for (var i = 0u; i < 3u; i++) {
+            if (l[i] == 0.0) {
+                zeros++;
+                if (k == 3u) {
+                    k = i;
+                }
+            } else if (m == 3u) {
+                m = i;
+            }
+        }
+        if (zeros == 0u) {
+            return false;
+        }
+        var moved = false;
+        var g_next = 0u;
+        var t_next: HullTriangle;
+        var l_next = vec4<f32>(0.0);
+        if (zeros == 1u) {
+            // On the edge opposite corner k.
+            let g = f.adjacent[k];
+            let t = hull_triangle(g);
+            if (hull_beyond(t, x)) {
+                let lg = hull_closest(t, x);
+                var far = 3u;
+                for (var j = 0u; j < 3u; j++) {
+                    if (far == 3u && all(f.probes != vec3<u32>(t.probes[j]))) {
+                        far = j;
+                    }
+                }
+                if (far == 3u) {
+                    return false;
+                }
+                if (lg[far] > 0.0) {
+                    moved = true;
+                    g_next = g;
+                    t_next = t;
+                    l_next = lg;
+                }
+            }
+        } else {
+            // On corner m: turn around it (across the edge opposite the next corner, the same
+            // way round in every triangle: they are all counter-clockwise from outside).
+            let v = f.probes[m];
+            var best = 0.0;
+            var g = f.adjacent[(m + 1u) % 3u];
+            var turns = 0u;
+            while (g != h) {
+                turns++;
+                if (turns > MAX_HULL_FAN) {
+                    return false;
+                }
+                let t = hull_triangle(g);
+                var slot = 3u;
+                for (var j = 0u; j < 3u; j++) {
+                    if (slot == 3u && t.probes[j] == v) {
+                        slot = j;
+                    }
+                }
+                if (slot == 3u) {
+                    return false;
+                }
+                let around = t.adjacent[(slot + 1u) % 3u];
+                if (hull_beyond(t, x)) {
+                    let lg = hull_closest(t, x);
+                    if (lg[(slot + 1u) % 3u] > 0.0 || lg[(slot + 2u) % 3u] > 0.0) {
+                        let d = hull_distance2(t, x, lg);
+                        if (!moved || d < best) {
+                            best = d;
+                            moved = true;
+                            g_next = g;
+                            t_next = t;
+                            l_next = lg;
+                        }
+                    }
+                }
+                g = around;
+            }
+        }
+        if (!moved) {
+            set_hull_weights(out, f, l);
+            return true;
+        }
+        h = g_next;
+        f = t_next;
+        l = l_next;
+    }
+    return false;
+}
+
+// Outside the hull, the exhaustive fallback of hull_descent: the weights of the nearest point
+// on the hull among the hull triangles x lies beyond. A triangle holding x's projection onto
+// its plane holds the nearest point (the hull lies behind that plane) and ends the search;
+// otherwise the nearest edge or corner point wins by squared distance. False when x lies
+// beyond none (rounding at the hull).
+fn hull_weights(x: vec3<f32>, out: ptr<function, Weights>) -> bool {
+    var best = 3.4e38;
+    var found = false;
     for (var h = 0u; h < params.hull_count; h++) {
-        let at = params.hull + h * HULL_WORDS;
-        let plane = hull_vec4(at + 12u);
+        let t = hull_triangle(h);
         // Beyond the face's plane, and the plane (a lower bound) not clearly farther than the
         // best yet (the margin keeps a near tie for the projection test below).
-        let above = dot(plane.xyz, x) - plane.w;
+        let above = dot(t.plane.xyz, x) - t.plane.w;
         if (above <= 0.0 || above * above > best * 1.001) {
             continue;
         }
-        let a = hull_vec4(at);
-        let b = hull_vec4(at + 4u);
-        let c = hull_vec4(at + 8u);
-        let l = closest_on_triangle(x, a.xyz, b.xyz, c.xyz);
-        let e = x - a.xyz - (b.xyz - a.xyz) * l.y - (c.xyz - a.xyz) * l.z;
-        let d = dot(e, e);
+        let l = hull_closest(t, x);
+        let d = hull_distance2(t, x, l);
         if (l.w == 1.0 || d < best) {
             best = d;
             found = true;
-            (*out).probes[0] = words[at + 3u];
-            (*out).probes[1] = words[at + 7u];
-            (*out).probes[2] = words[at + 11u];
-            (*out).w[0] = l.x;
-            (*out).w[1] = l.y;
-            (*out).w[2] = l.z;
+            set_hull_weights(out, t, l);
             if (l.w == 1.0) {
                 break;
             }
@@ -266,34 +407,18 @@ fn interpolation_weights(x: vec3<f32>) -> Weights {
             break;
         }
         let next = words[params.tets + tet * TET_WORDS + 4u + worst];
-        if (next == NO_NEIGHBOUR) {
-            // Beyond a hull face's plane: outside the (convex) hull.
+        if ((next & HULL_FACE) != 0u) {
+            // Beyond a hull face's plane: outside the (convex) hull. The nearest point on the
+            // hull, by the descent from that face (by the scan where it gives up).
             for (var i = 0u; i < 8u; i++) {
                 out.probes[i] = 0u;
                 out.w[i] = 0.0;
             }
-            // Most often x's projection onto that face lies inside it: then it is the nearest
-            // hull point, and the search over the hull is not needed.
-            var k = 0u;
-            var corners: array<vec3<f32>, 3>;
-            for (var i = 0u; i < 4u; i++) {
-                if (i != worst) {
-                    out.probes[k] = words[params.tets + tet * TET_WORDS + i];
-                    corners[k] = positions[out.probes[k]].xyz;
-                    k++;
-                }
-            }
-            let face = closest_on_triangle(x, corners[0], corners[1], corners[2]);
-            out.w[0] = face.x;
-            out.w[1] = face.y;
-            out.w[2] = face.z;
-            if (face.w == 1.0) {
+            let h = next & ~HULL_FACE;
+            if (h < params.hull_count && hull_descent(x, h, &out)) {
                 return out;
             }
-            // Else its nearest edge or corner point starts the search (and prunes it).
-            let e = x - corners[0] - (corners[1] - corners[0]) * face.y
-                - (corners[2] - corners[0]) * face.z;
-            if (hull_weights(x, &out, dot(e, e))) {
+            if (hull_weights(x, &out)) {
                 return out;
             }
             break;

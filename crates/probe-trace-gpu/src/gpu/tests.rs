@@ -207,6 +207,36 @@ fn shared_structs_match_the_wgsl_layout() {
             ("kd_count", offset_of!(DiffuseParams, kd_count)),
             ("min_weight", offset_of!(DiffuseParams, min_weight)),
             ("backface", offset_of!(DiffuseParams, backface)),
+            ("max_hull_steps", offset_of!(DiffuseParams, max_hull_steps)),
         ],
     );
+}
+
+/// The value of the WGSL `u32` constant `name`.
+fn wgsl_u32_constant(module: &naga::Module, name: &str) -> u32 {
+    let constant = module
+        .constants
+        .iter()
+        .map(|(_, c)| c)
+        .find(|c| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no WGSL constant `{name}`"));
+    match module.global_expressions[constant.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => v,
+        ref other => panic!("`{name}` is {other:?}, not a u32 literal"),
+    }
+}
+
+/// The packed diffuse layout's constants are the shader's.
+#[test]
+fn diffuse_constants_match_the_wgsl() {
+    use crate::packed::{HULL_FACE, HULL_WORDS, MAX_HULL_FAN, TET_WORDS};
+    let diffuse = parse("diffuse", DIFFUSE_WGSL);
+    for (name, value) in [
+        ("TET_WORDS", TET_WORDS as u32),
+        ("HULL_WORDS", HULL_WORDS as u32),
+        ("HULL_FACE", HULL_FACE),
+        ("MAX_HULL_FAN", MAX_HULL_FAN),
+    ] {
+        assert_eq!(wgsl_u32_constant(&diffuse, name), value, "{name}");
+    }
 }
