@@ -23,7 +23,8 @@
 //!
 //! Trace times of the filtered and stochastic images are the median of 3 calls after a warm-up
 //! call (GPU timestamps when the device has them, else wall time); the 64-rpp trace runs once. Prints a Markdown table and writes `OUT/NAME.png`: per roughness
-//! a row filtered 1 rpp | stochastic 16 rpp | reference, at the reference's exposure.
+//! a row filtered 1 rpp by one probe | filtered 1 rpp blended | stochastic 16 rpp | reference, at
+//! the reference's exposure.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -154,7 +155,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let mut field = None;
     let mut baked = None;
-    let mut panels: Vec<[Image; 3]> = Vec::new();
+    let mut panels: Vec<[Image; 4]> = Vec::new();
     println!(
         "{scene_spec}: {} probes at {resolution}², {}×{} from {camera_name}, {}",
         probes.positions.len(),
@@ -225,7 +226,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (filtered, filtered_ms) =
             timed_image(&mut device, field, &filtered_rays, &cone, size, 3)?;
+        // The same cone rays read by the answering probe alone (no blend), as before.
+        let single = TraceOptions {
+            glossy_blend: 0,
+            ..cone
+        };
+        let (unblended, unblended_ms) =
+            timed_image(&mut device, field, &filtered_rays, &single, size, 3)?;
         for (label, image, rays, ms, rays_ms) in [
+            (
+                "filtered 1 rpp, one probe",
+                &unblended,
+                filtered_rays.len(),
+                unblended_ms,
+                Some(filtered_rays_ms),
+            ),
             (
                 "filtered 1 rpp",
                 &filtered,
@@ -260,15 +275,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "| {roughness} | filtered / stochastic time | | | | | {:.3} | |",
             filtered_ms / stochastic_ms
         );
-        panels.push([filtered, stochastic, reference.clone()]);
+        println!(
+            "| {roughness} | filtered one probe / stochastic time | | | | | {:.3} | |",
+            unblended_ms / stochastic_ms
+        );
+        panels.push([unblended, filtered, stochastic, reference.clone()]);
     }
 
     // The picture: a row per roughness, filtered | stochastic | reference, 4-pixel gaps.
     let gap = 4u32;
     let (w, h) = size;
     let rows = panels.len() as u32;
-    let mut picture = Image::new(3 * w + 2 * gap, rows * h + (rows - 1) * gap);
-    let exposure = panels.last().map_or(1.0, |row| row[2].auto_exposure());
+    let mut picture = Image::new(4 * w + 3 * gap, rows * h + (rows - 1) * gap);
+    let exposure = panels.last().map_or(1.0, |row| row[3].auto_exposure());
     for (row, images) in panels.iter().enumerate() {
         for (column, image) in images.iter().enumerate() {
             for y in 0..h {
@@ -284,7 +303,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = out.join(format!("{name}.png"));
     picture.save_png_with_exposure(&path, exposure)?;
     println!(
-        "wrote {} (rows: roughness {roughnesses:?}; columns: filtered 1 rpp | stochastic 16 rpp | reference)",
+        "wrote {} (rows: roughness {roughnesses:?}; columns: filtered 1 rpp one probe | filtered 1 rpp blended | stochastic 16 rpp | reference)",
         path.display()
     );
     Ok(())

@@ -1132,7 +1132,9 @@ pub(crate) struct TraceParams {
     pub glossy_angle: f32,
     /// `probe_octa::texel_angle(N)`: the cone angle level 0 matches.
     pub glossy_base_angle: f32,
-    pub pad1: u32,
+    /// Probes a filtered glossy answer blends (`TraceOptions::glossy_blend`; 0: the
+    /// answering probe alone).
+    pub glossy_blend: u32,
     /// Start texel of each glossy level in the radiance buffer (entry 0 unused).
     pub glossy_offsets: [[u32; 4]; 2],
 }
@@ -1178,6 +1180,9 @@ pub(crate) const MAX_PROBES_PER_RAY: u32 = 64;
 /// (`TraceOptions::nearest_candidates`).
 pub(crate) const MAX_NEAREST_CANDIDATES: u32 = 16;
 
+/// Most probes a filtered glossy answer may blend (`TraceOptions::glossy_blend`).
+pub(crate) const MAX_GLOSSY_BLEND: u32 = 8;
+
 /// Checks trace options and turns them into the uniform block both tracers read.
 pub(crate) fn trace_params(
     field: &PackedField,
@@ -1220,6 +1225,13 @@ pub(crate) fn trace_params(
             option: "glossy_roughness",
             value: f64::from(roughness),
             requirement: "a cone needs prefiltered levels: upload with FieldOptions::glossy_levels > 0, or trace with 0",
+        });
+    }
+    if options.glossy_blend > MAX_GLOSSY_BLEND {
+        return Err(TraceError::BadOption {
+            option: "glossy_blend",
+            value: f64::from(options.glossy_blend),
+            requirement: "it must be from 0 (the answering probe alone) to 8",
         });
     }
     let glossy_angle = probe_octa::ggx_lobe_angle(roughness * roughness);
@@ -1272,7 +1284,7 @@ pub(crate) fn trace_params(
         glossy_tan: glossy_angle.tan(),
         glossy_angle,
         glossy_base_angle: probe_octa::texel_angle(field.resolution),
-        pad1: 0,
+        glossy_blend: options.glossy_blend,
         glossy_offsets,
     })
 }

@@ -258,6 +258,19 @@ pub struct TraceOptions {
     /// around `λ` (level 0 is the usual depth-aware read). Needs a field uploaded with
     /// [`crate::FieldOptions::glossy_levels`] > 0.
     pub glossy_roughness: f32,
+    /// Filtered glossy (`glossy_roughness > 0`): how many probes a HIT or MISS answer blends
+    /// (0..=8; 0 reads the answering probe alone). The `k` probes nearest to the ray's origin
+    /// (the shading point) each read their prefiltered levels towards the hit (for a MISS,
+    /// along the ray, where their own texel there sees the sky), weighted by
+    /// `(1 − d²/R²)²` with `R` the distance to the `k+1`-th nearest probe (so the weights,
+    /// and the image, are continuous as the origin moves: a probe enters or leaves the blend
+    /// at weight 0), times the cosine at which each sees the hit surface; probes that
+    /// cannot see the hit (one depth fetch) are left out, and where none can, the answering
+    /// probe's read stands. One probe answering each pixel alone shows every change of the
+    /// answering probe as a seam (probe-sized patches in rough reflections). Mirror rays
+    /// (`glossy_roughness` 0) are not blended. Default 4 (measured: BENCHMARKS.md,
+    /// "Filtered glossy").
+    pub glossy_blend: u32,
 }
 
 impl Default for TraceOptions {
@@ -270,6 +283,7 @@ impl Default for TraceOptions {
             nearest_candidates: 16,
             back_face_rejection: true,
             glossy_roughness: 0.0,
+            glossy_blend: 4,
         }
     }
 }

@@ -547,6 +547,91 @@ fn glossy_radiance(
     a.to_array()
 }
 
+/// A filtered glossy answer blended over the probes nearest to the ray's origin
+/// (`TraceOptions::glossy_blend`; `gpu/trace.wgsl`'s `blended_radiance` step for step): each
+/// of the `k` nearest reads its prefiltered levels towards the hit (`hit` true, at `end`, the
+/// surface's `normal`) or, for a MISS, along `direction` where its own texel sees the sky;
+/// weights `(1 − d²/R²)²` (`R`: the `k+1`-th nearest probe's distance) times the cosine at
+/// which the probe sees the surface. `own`, the answering probe's read, stands where no
+/// blended probe sees the hit (or blending is off).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one ray's end and where to read it"
+)]
+fn blended_radiance(
+    field: &PackedField,
+    selection: &PackedSelection,
+    params: &TraceParams,
+    origin: Vec3,
+    direction: Vec3,
+    hit: bool,
+    end: Vec3,
+    normal: Vec3,
+    t: f32,
+    own: [f32; 3],
+    fetches: &mut u32,
+) -> [f32; 3] {
+    if params.glossy_levels == 0 || params.glossy_blend == 0 || params.kd_count == 0 {
+        return own;
+    }
+    let k = params.glossy_blend as usize;
+    let mut near = [(NO_PROBE, 0.0f32); select::MAX_BLEND_QUERY];
+    let found = select::nearest_probes(
+        &selection.words,
+        params.kd_nodes,
+        params.kd_count,
+        origin,
+        k + 1,
+        &mut near,
+    );
+    // Fewer probes than k + 1: all of them, at equal distance weight.
+    let radius2 = if found > k { near[k].1 } else { f32::INFINITY };
+    let mut sum = Vec3::ZERO;
+    let mut total = 0.0f32;
+    for &(probe, d2) in &near[..found.min(k)] {
+        let falloff = if radius2.is_finite() {
+            let u = 1.0 - d2 / radius2;
+            u * u
+        } else {
+            1.0
+        };
+        if falloff <= 0.0 {
+            continue;
+        }
+        let radiance = if hit {
+            let v = end - field.position(probe);
+            let r = v.length();
+            if r <= 0.0 {
+                continue;
+            }
+            let facing = -normal.dot(v / r);
+            if facing <= 0.0 || !sees_point(field, probe, end, false, fetches) {
+                continue;
+            }
+            let cell = direction_cell(field.resolution, v / r);
+            let w = falloff * facing;
+            let read = glossy_radiance(field, params, probe, v, false, cell, t, fetches);
+            (w, read)
+        } else {
+            *fetches += 1;
+            let cell = direction_cell(field.resolution, direction);
+            let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
+            if f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) < field.sky_distance {
+                continue;
+            }
+            let read = glossy_radiance(field, params, probe, direction, true, cell, t, fetches);
+            (falloff, read)
+        };
+        sum += radiance.0 * Vec3::from(radiance.1);
+        total += radiance.0;
+    }
+    if total > 0.0 {
+        (sum / total).to_array()
+    } else {
+        own
+    }
+}
+
 /// The interior texel holding `direction`.
 fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     let [x, y] = probe_octa::OctaLayout::new(resolution)
@@ -706,13 +791,26 @@ pub(crate) fn trace_ray<O: RayObserver>(
             } else {
                 Vec3::ZERO
             };
-            let radiance = answer_radiance(
+            let own = answer_radiance(
                 field,
                 params,
                 probe,
                 &answer,
                 hit - field.position(probe),
                 direction,
+                &mut fetches,
+            );
+            let radiance = blended_radiance(
+                field,
+                selection,
+                params,
+                origin,
+                direction,
+                answer.code == HIT,
+                hit,
+                normal,
+                answer.t,
+                own,
                 &mut fetches,
             );
             record.status = answer.code;

@@ -269,6 +269,71 @@ pub(crate) fn nearest_probe(words: &[u32], start: u32, count: u32, p: Vec3) -> u
     best_probe
 }
 
+/// Most probes a filtered glossy ray blends (`TraceOptions::glossy_blend`), plus one for the
+/// blend's radius.
+pub(crate) const MAX_BLEND_QUERY: usize = crate::packed::MAX_GLOSSY_BLEND as usize + 1;
+
+/// The `k` (at most [`MAX_BLEND_QUERY`]) probes nearest to `p` in the k-d tree at
+/// `words[start..]`, nearest first (ties to the lower probe), as (probe, squared distance);
+/// returns how many were found (fewer than `k` only when the tree has fewer probes). The
+/// search of [`nearest_probe`] pruned by the `k`-th best distance; `gpu/trace.wgsl`'s
+/// `nearest_probes` step for step.
+pub(crate) fn nearest_probes(
+    words: &[u32],
+    start: u32,
+    count: u32,
+    p: Vec3,
+    k: usize,
+    out: &mut [(u32, f32); MAX_BLEND_QUERY],
+) -> usize {
+    let k = k.min(MAX_BLEND_QUERY);
+    let mut found = 0usize;
+    let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
+    stack[0] = (0, count, 0, -1.0);
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let (lo, hi, depth, bound) = stack[top];
+        if lo >= hi || (found == k && bound > out[k - 1].1) {
+            continue;
+        }
+        let mid = (lo + hi) / 2;
+        let at = (start + 4 * mid) as usize;
+        let q = Vec3::new(
+            f32::from_bits(words[at]),
+            f32::from_bits(words[at + 1]),
+            f32::from_bits(words[at + 2]),
+        );
+        let probe = words[at + 3];
+        let d = q - p;
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        // Insert (probe, d2) into the sorted list if it beats the k-th.
+        let better = |a: (u32, f32)| d2 < a.1 || (d2 == a.1 && probe < a.0);
+        if found < k || better(out[k - 1]) {
+            let mut i = if found < k { found } else { k - 1 };
+            while i > 0 && better(out[i - 1]) {
+                out[i] = out[i - 1];
+                i -= 1;
+            }
+            out[i] = (probe, d2);
+            found = (found + 1).min(k);
+        }
+        let axis = (depth % 3) as usize;
+        let delta = p[axis] - q[axis];
+        let (near, far) = if delta < 0.0 {
+            ((lo, mid), (mid + 1, hi))
+        } else {
+            ((mid + 1, hi), (lo, mid))
+        };
+        if top + 2 <= stack.len() {
+            stack[top] = (far.0, far.1, depth + 1, delta * delta);
+            stack[top + 1] = (near.0, near.1, depth + 1, -1.0);
+            top += 2;
+        }
+    }
+    found
+}
+
 /// The selection tests' box scene, shared with `tests/selection_properties.rs`.
 #[cfg(test)]
 #[path = "../../tests/support/boxes.rs"]
@@ -284,6 +349,54 @@ mod tests {
     };
 
     use crate::input::ProbeSelection;
+
+    /// The k nearest probes from the packed k-d tree are the brute-force k nearest (squared
+    /// distances in order, ties to the lower probe), for every k the blend may ask for.
+    #[test]
+    fn nearest_probes_match_brute_force() {
+        let mut rng = Lcg(5);
+        for set in 0..20 {
+            // Some sets on a regular grid (many equal distances), some random.
+            let positions: Vec<Vec3> = (0..(3 + set * 3))
+                .map(|i| {
+                    if set % 2 == 0 {
+                        Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32)
+                    } else {
+                        Vec3::new(rng.next(), rng.next(), rng.next()) * 4.0
+                    }
+                })
+                .collect();
+            let tree = NearestProbe::new(&positions);
+            let words: Vec<u32> = tree
+                .nodes()
+                .iter()
+                .flat_map(|n| {
+                    n.position
+                        .iter()
+                        .map(|c| c.to_bits())
+                        .chain(std::iter::once(n.probe))
+                })
+                .collect();
+            for _ in 0..50 {
+                let p = Vec3::new(rng.next(), rng.next(), rng.next()) * 5.0 - 0.5;
+                let mut brute: Vec<(u32, f32)> = positions
+                    .iter()
+                    .enumerate()
+                    .map(|(i, q)| {
+                        let d = *q - p;
+                        (i as u32, d.x * d.x + d.y * d.y + d.z * d.z)
+                    })
+                    .collect();
+                brute.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+                for k in 1..=MAX_BLEND_QUERY {
+                    let mut out = [(NO_PROBE, 0.0f32); MAX_BLEND_QUERY];
+                    let found = nearest_probes(&words, 0, positions.len() as u32, p, k, &mut out);
+                    assert_eq!(found, k.min(positions.len()));
+                    assert_eq!(&out[..found], &brute[..found], "k {k} at {p:?}");
+                }
+            }
+        }
+    }
 
     /// Deterministic numbers in [0, 1).
     struct Lcg(u64);

@@ -158,6 +158,15 @@ fn shared_structs_match_the_wgsl_layout() {
                 "neighbour_resolution",
                 offset_of!(TraceParams, neighbour_resolution),
             ),
+            ("glossy_levels", offset_of!(TraceParams, glossy_levels)),
+            ("glossy_tan", offset_of!(TraceParams, glossy_tan)),
+            ("glossy_angle", offset_of!(TraceParams, glossy_angle)),
+            (
+                "glossy_base_angle",
+                offset_of!(TraceParams, glossy_base_angle),
+            ),
+            ("glossy_blend", offset_of!(TraceParams, glossy_blend)),
+            ("glossy_offsets", offset_of!(TraceParams, glossy_offsets)),
         ],
     );
     let diffuse = parse("diffuse", DIFFUSE_WGSL);

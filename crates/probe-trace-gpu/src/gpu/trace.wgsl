@@ -60,7 +60,7 @@ struct TraceParams {
     glossy_tan: f32,
     glossy_angle: f32,
     glossy_base_angle: f32,
-    pad2: u32,
+    glossy_blend: u32,
     glossy_offsets: array<vec4<u32>, 2>,
 }
 
@@ -1027,6 +1027,152 @@ fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32)
     return a;
 }
 
+// Most probes a blend queries: src/packed.rs MAX_GLOSSY_BLEND + 1.
+const MAX_BLEND_QUERY: u32 = 9u;
+var<private> near_probe: array<u32, 9>;
+var<private> near_d2: array<f32, 9>;
+
+// The k probes nearest to p in the k-d tree at words[start..], nearest first (ties to the
+// lower probe), into near_probe / near_d2; returns how many (src/cpu/select.rs
+// nearest_probes).
+fn nearest_probes(start: u32, count: u32, p: vec3<f32>, k_in: u32) -> u32 {
+    let k = min(k_in, MAX_BLEND_QUERY);
+    var found = 0u;
+    var stack_lo: array<u32, 64>;
+    var stack_hi: array<u32, 64>;
+    var stack_depth: array<u32, 64>;
+    var stack_bound: array<f32, 64>;
+    stack_lo[0] = 0u;
+    stack_hi[0] = count;
+    stack_depth[0] = 0u;
+    stack_bound[0] = -1.0;
+    var top = 1u;
+    loop {
+        if (top == 0u) {
+            break;
+        }
+        top -= 1u;
+        let lo = stack_lo[top];
+        let hi = stack_hi[top];
+        let depth = stack_depth[top];
+        let bound = stack_bound[top];
+        if (lo >= hi || (found == k && bound > near_d2[k - 1u])) {
+            continue;
+        }
+        let mid = (lo + hi) / 2u;
+        let at = start + 4u * mid;
+        let q = vec3<f32>(bitcast<f32>(words[at]), bitcast<f32>(words[at + 1u]), bitcast<f32>(words[at + 2u]));
+        let probe = words[at + 3u];
+        let d = q - p;
+        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
+        var insert = found < k;
+        if (!insert) {
+            insert = d2 < near_d2[k - 1u] || (d2 == near_d2[k - 1u] && probe < near_probe[k - 1u]);
+        }
+        if (insert) {
+            var i = found;
+            if (found >= k) {
+                i = k - 1u;
+            }
+            loop {
+                if (i == 0u) {
+                    break;
+                }
+                let a = near_d2[i - 1u];
+                if (!(d2 < a || (d2 == a && probe < near_probe[i - 1u]))) {
+                    break;
+                }
+                near_probe[i] = near_probe[i - 1u];
+                near_d2[i] = a;
+                i -= 1u;
+            }
+            near_probe[i] = probe;
+            near_d2[i] = d2;
+            found = min(found + 1u, k);
+        }
+        let axis = depth % 3u;
+        let delta = p[axis] - q[axis];
+        var near_lo = mid + 1u;
+        var near_hi = hi;
+        var far_lo = lo;
+        var far_hi = mid;
+        if (delta < 0.0) {
+            near_lo = lo;
+            near_hi = mid;
+            far_lo = mid + 1u;
+            far_hi = hi;
+        }
+        if (top + 2u <= 64u) {
+            stack_lo[top] = far_lo;
+            stack_hi[top] = far_hi;
+            stack_depth[top] = depth + 1u;
+            stack_bound[top] = delta * delta;
+            stack_lo[top + 1u] = near_lo;
+            stack_hi[top + 1u] = near_hi;
+            stack_depth[top + 1u] = depth + 1u;
+            stack_bound[top + 1u] = -1.0;
+            top += 2u;
+        }
+    }
+    return found;
+}
+
+// A filtered glossy answer blended over the probes nearest to the ray's origin
+// (src/cpu/mod.rs blended_radiance): `own` stands where none sees the hit.
+fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec3<f32>, normal: vec3<f32>, t: f32, own: vec3<f32>) -> vec3<f32> {
+    if (params.glossy_levels == 0u || params.glossy_blend == 0u || params.kd_count == 0u) {
+        return own;
+    }
+    let k = params.glossy_blend;
+    let found = nearest_probes(params.kd_nodes, params.kd_count, origin, k + 1u);
+    var radius2 = bitcast<f32>(0x7f800000u);
+    let finite = found > k;
+    if (finite) {
+        radius2 = near_d2[k];
+    }
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var i = 0u; i < min(found, k); i++) {
+        let probe = near_probe[i];
+        var falloff = 1.0;
+        if (finite) {
+            let u = 1.0 - near_d2[i] / radius2;
+            falloff = u * u;
+        }
+        if (falloff <= 0.0) {
+            continue;
+        }
+        if (hit) {
+            let v = end - positions[probe].xyz;
+            let r = length(v);
+            if (r <= 0.0) {
+                continue;
+            }
+            let facing = -dot(normal, v / r);
+            if (facing <= 0.0 || !sees_point(probe, end, false)) {
+                continue;
+            }
+            let cell = texel_containing(params.resolution, v / r);
+            let w = falloff * facing;
+            sum += w * glossy_radiance(probe, v, false, cell, t);
+            total += w;
+        } else {
+            fetches += 1u;
+            let cell = texel_containing(params.resolution, direction);
+            let texel = geometry[padded_index(params.resolution, probe, cell)];
+            if (bitcast<f32>(texel.x & ~SIGN_BIT) < params.sky_distance) {
+                continue;
+            }
+            sum += falloff * glossy_radiance(probe, direction, true, cell, t);
+            total += falloff;
+        }
+    }
+    if (total > 0.0) {
+        return sum / total;
+    }
+    return own;
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     let origin = ray.origin;
@@ -1127,6 +1273,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 let cell = texel_containing(params.resolution, direction);
                 record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
+            record.radiance = blended_radiance(origin, direction, answer.code == HIT, hit, normal, answer.t, record.radiance);
             record.status = answer.code;
             record.t = answer.t;
             record.position = hit;
