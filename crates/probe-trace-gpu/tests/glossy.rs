@@ -264,4 +264,16 @@ fn bad_roughness_is_refused() {
         assert!(refused(cpu.trace(&filtered, &rays, &rough(bad))));
     }
     assert!(cpu.trace(&filtered, &rays, &rough(1.0)).is_ok());
+    // More probes than a blend holds are refused, naming the option.
+    let too_many = TraceOptions {
+        glossy_blend: 9,
+        ..rough(0.3)
+    };
+    assert!(matches!(
+        cpu.trace(&filtered, &rays, &too_many),
+        Err(TraceError::BadOption {
+            option: "glossy_blend",
+            ..
+        })
+    ));
 }
