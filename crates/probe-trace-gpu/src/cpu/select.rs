@@ -224,49 +224,14 @@ impl Selector<'_> {
 }
 
 /// Nearest probe to `p` in the k-d tree stored at `words[start..]` (`count` nodes of 4 words:
-/// position bits, probe), ties to the lower probe; the search of `probe_index::NearestProbe`
-/// with an explicit stack.
+/// position bits, probe), ties to the lower probe: [`nearest_probes`] with `k = 1`, the search
+/// of `probe_index::NearestProbe` with an explicit stack.
 pub(crate) fn nearest_probe(words: &[u32], start: u32, count: u32, p: Vec3) -> u32 {
-    let mut best_probe = NO_PROBE;
-    let mut best_d2 = f32::INFINITY;
-    // (lo, hi, depth, bound): visit [lo, hi) unless bound > best.
-    let mut stack = [(0u32, 0u32, 0u32, 0.0f32); 64];
-    stack[0] = (0, count, 0, -1.0);
-    let mut top = 1usize;
-    while top > 0 {
-        top -= 1;
-        let (lo, hi, depth, bound) = stack[top];
-        if bound > best_d2 || lo >= hi {
-            continue;
-        }
-        let mid = (lo + hi) / 2;
-        let at = (start + 4 * mid) as usize;
-        let q = Vec3::new(
-            f32::from_bits(words[at]),
-            f32::from_bits(words[at + 1]),
-            f32::from_bits(words[at + 2]),
-        );
-        let probe = words[at + 3];
-        let d = q - p;
-        let d2 = d.x * d.x + d.y * d.y + d.z * d.z;
-        if d2 < best_d2 || (d2 == best_d2 && probe < best_probe) {
-            best_d2 = d2;
-            best_probe = probe;
-        }
-        let axis = (depth % 3) as usize;
-        let delta = p[axis] - q[axis];
-        let (near, far) = if delta < 0.0 {
-            ((lo, mid), (mid + 1, hi))
-        } else {
-            ((mid + 1, hi), (lo, mid))
-        };
-        if top + 2 <= stack.len() {
-            stack[top] = (far.0, far.1, depth + 1, delta * delta);
-            stack[top + 1] = (near.0, near.1, depth + 1, -1.0);
-            top += 2;
-        }
+    let mut out = [(NO_PROBE, 0.0f32); MAX_BLEND_QUERY];
+    match nearest_probes(words, start, count, p, 1, &mut out) {
+        0 => NO_PROBE,
+        _ => out[0].0,
     }
-    best_probe
 }
 
 /// Most probes a filtered glossy ray blends (`TraceOptions::glossy_blend`), plus one for the
