@@ -1126,7 +1126,8 @@ pub(crate) struct TraceParams {
     pub neighbour_resolution: u32,
     /// Prefiltered glossy levels read (0: mirror rays, level 0 only).
     pub glossy_levels: u32,
-    /// `tan` of the rays' cone angle (`probe_octa::ggx_lobe_angle` of their roughness).
+    /// `tan` of the rays' cone angle (`probe_octa::ggx_lobe_angle` of their roughness),
+    /// the angle capped at [`MAX_CONE_ANGLE`].
     pub glossy_tan: f32,
     /// The rays' cone angle (radians).
     pub glossy_angle: f32,
@@ -1281,13 +1282,22 @@ pub(crate) fn trace_params(
         } else {
             0
         },
-        glossy_tan: glossy_angle.tan(),
+        // The cone's angle reaches 90° at roughness 1 (`2·atan(1)`), where f32 rounding lands
+        // just past π/2 and `tan` is −2.3e7: every hit then read level 0, the sharp read, as
+        // if the surface were a mirror. Capped just below 90°, the footprint `t·tan φ` of a
+        // hit more than a few millimetres away spans what the probe sees, and the read is
+        // the top level, as a lobe that wide asks.
+        glossy_tan: glossy_angle.min(MAX_CONE_ANGLE).tan(),
         glossy_angle,
         glossy_base_angle: probe_octa::texel_angle(field.resolution),
         glossy_blend: options.glossy_blend,
         glossy_offsets,
     })
 }
+
+/// The widest cone angle whose `tan` a filtered trace uses: just below 90°, which roughness
+/// 1 reaches (`TraceParams::glossy_tan`).
+pub(crate) const MAX_CONE_ANGLE: f32 = std::f32::consts::FRAC_PI_2 - 1e-3;
 
 /// Checks rays and normalises their directions.
 pub(crate) fn prepare_rays(

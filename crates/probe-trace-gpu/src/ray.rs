@@ -251,7 +251,8 @@ pub struct TraceOptions {
     /// Filtered glossy: the perceptual GGX roughness `r` of every ray (`α = r²`, as
     /// `probe_capture::Reflection::Ggx`), 0..=1; 0 (the default) reads level 0 only. Each ray
     /// stands for a cone of angle `φ = probe_octa::ggx_lobe_angle(α)` about it (the lobe's
-    /// median angle): geometry comes from the centre ray as before; the radiance at a hit
+    /// median angle; 90° at roughness 1, where the footprint's `tan φ` is taken just below
+    /// 90°, so a hit reads the top level): geometry comes from the centre ray as before; the radiance at a hit
     /// `t` along the ray, seen from the answering probe at distance `D`, is read from the
     /// prefiltered level whose texel matches the cone's footprint, `λ = log2(atan(t·tan φ / D)
     /// / texel_angle(N))` (for the sky, `φ` itself), interpolated between the two levels
