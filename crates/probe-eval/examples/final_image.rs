@@ -10,10 +10,12 @@
 //! ```
 //!
 //! `SCENE` is a glTF file or `builtin:NAME`; `PROBES.json` is what `probes place --out`
-//! writes. Each set is rendered with filtered and with stochastic specular rays (one per
-//! pixel). Writes to `OUT/`: `reference.png`, and per set and mode `LABEL_MODE.png` (probes |
-//! reference | error map, at the reference's exposure) and `LABEL_MODE_parts.png` (direct,
-//! diffuse, specular through the probes, then the reference's), and prints a Markdown table. The bakes are kept
+//! writes. Each set is rendered with filtered specular rays blended over the default 4 probes
+//! (`filtered-blend-4`), filtered rays read from the answering probe alone
+//! (`filtered-one-probe`) and stochastic specular rays (`stochastic`; one per pixel). Writes
+//! to `OUT/`: `reference.png`, and per set and mode `LABEL_MODE.png` (probes | reference |
+//! error map, at the reference's exposure) and `LABEL_MODE_parts.png` (direct, diffuse,
+//! specular through the probes, then the reference's), and prints a Markdown table. The bakes are kept
 //! in `OUT/bakes/` and reused by later runs with the same probes and resolution (`bake (s)`
 //! is then NaN), so a change to the renderer is measured on the same bakes.
 
@@ -119,8 +121,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reference = Some(r);
         }
         let reference = reference.as_ref().expect("rendered above");
-        for specular in [SpecularMode::Filtered, SpecularMode::Stochastic] {
-            let mode = specular_name(specular);
+        // Filtered specular blended over the default 4 probes, read from the answering probe
+        // alone, and stochastic: one run, so the ratios between them share the load.
+        let blended = FinalOptions::default().glossy_blend;
+        for (specular, glossy_blend) in [
+            (SpecularMode::Filtered, blended),
+            (SpecularMode::Filtered, 0),
+            (SpecularMode::Stochastic, blended),
+        ] {
+            let mode = match (specular, glossy_blend) {
+                (SpecularMode::Filtered, 0) => "filtered-one-probe".to_owned(),
+                (SpecularMode::Filtered, k) => format!("filtered-blend-{k}"),
+                (SpecularMode::Stochastic, _) => specular_name(specular).to_owned(),
+            };
             let options = FinalOptions {
                 blend: if grid.is_some() {
                     DiffuseBlend::Grid
@@ -128,6 +141,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     DiffuseBlend::Delaunay
                 },
                 specular,
+                glossy_blend,
                 ..FinalOptions::default()
             };
             let (first, c) = render_and_compare(

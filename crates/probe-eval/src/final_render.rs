@@ -75,7 +75,7 @@ pub fn specular_name(mode: SpecularMode) -> &'static str {
 }
 
 /// Settings of [`render_final`]. `Default` gives hi-Z through the octree, Delaunay diffuse,
-/// filtered specular and 16 emitter samples per pixel.
+/// filtered specular blended over 4 probes and 16 emitter samples per pixel.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FinalOptions {
     /// The light-field tracer of the specular rays.
@@ -88,6 +88,12 @@ pub struct FinalOptions {
     pub diffuse: DiffuseOptions,
     /// How the specular part is traced.
     pub specular: SpecularMode,
+    /// Probes whose prefiltered reads are blended for each [`SpecularMode::Filtered`] ray
+    /// ([`TraceOptions::glossy_blend`]: the nearest probes of the shading point that see the
+    /// hit; 0 reads the answering probe alone). Default 4, as the tracer's: measured on the
+    /// Cornell box, Sponza and the Breakfast room against one probe (BENCHMARKS.md, "The
+    /// final image").
+    pub glossy_blend: u32,
     /// Specular rays per pixel of [`SpecularMode::Stochastic`] (materials rougher than
     /// [`probe_capture::MIRROR_ROUGHNESS`]; mirrors take one).
     pub specular_rays_per_pixel: u32,
@@ -105,6 +111,7 @@ impl Default for FinalOptions {
             blend: DiffuseBlend::Delaunay,
             diffuse: DiffuseOptions::default(),
             specular: SpecularMode::Filtered,
+            glossy_blend: TraceOptions::default().glossy_blend,
             specular_rays_per_pixel: 1,
             emitter_samples: 16,
             seed: 0,
@@ -280,12 +287,9 @@ pub fn render_final(
         let mut gpu = Some(std::time::Duration::ZERO);
         for (roughness, members) in &groups {
             let subset: Vec<TraceRay> = members.iter().map(|&i| trace_rays[i]).collect();
-            // One probe answers each specular ray (`glossy_blend: 0`): the final-image
-            // figures in BENCHMARKS.md were measured so. The multi-probe blend that lowers
-            // the filtered glossy error ("Filtered glossy") is not yet measured here.
             let cone = TraceOptions {
                 glossy_roughness: *roughness,
-                glossy_blend: 0,
+                glossy_blend: options.glossy_blend,
                 ..options.tracer.options()
             };
             let output = device.trace(&field, &subset, &cone)?;

@@ -116,15 +116,20 @@ pub struct Args {
     /// footprint, weighted by the lobe's albedo; no noise. `--rays-per-pixel` is ignored.
     #[arg(long)]
     pub filtered: bool,
+    /// Probes blended per filtered ray (`--filtered`, and `final`'s filtered specular): the
+    /// prefiltered reads of the shading point's nearest probes that see the hit, 0 to 8;
+    /// 0 reads the answering probe alone.
+    #[arg(long, default_value_t = TraceOptions::default().glossy_blend)]
+    pub glossy_blend: u32,
     /// Depth of the sparse voxel octree (for `--select svo`).
     #[arg(long, default_value_t = 7)]
     pub svo_depth: u32,
     /// Seed of the reflection rays.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Diffuse shading options as `key=value,...` (`visibility`, `normal-bias`, `exponent`,
-    /// `min-weight`, `backface`; see `probe_trace_gpu::DiffuseOptions`); unnamed keys keep
-    /// their defaults.
+    /// Diffuse shading options of `diffuse` and of `final`'s diffuse part, as `key=value,...`
+    /// (`visibility`, `normal-bias`, `exponent`, `min-weight`, `backface`; see
+    /// `probe_trace_gpu::DiffuseOptions`); unnamed keys keep their defaults.
     #[arg(long, default_value = "")]
     pub diffuse_options: DiffuseOptions,
     /// Fail instead of falling back to the CPU twin when no GPU adapter exists.
@@ -332,6 +337,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         };
         let cone = TraceOptions {
             glossy_roughness: args.roughness,
+            glossy_blend: args.glossy_blend,
             ..tracer.options()
         };
         let trace_rays: Vec<TraceRay> = rays
@@ -507,14 +513,15 @@ fn final_component(
         },
         selection,
         blend,
+        diffuse: args.diffuse_options,
         specular: match args.specular {
             SpecularArg::Filtered => SpecularMode::Filtered,
             SpecularArg::Stochastic => SpecularMode::Stochastic,
         },
+        glossy_blend: args.glossy_blend,
         specular_rays_per_pixel: args.rays_per_pixel,
         emitter_samples: args.emitter_samples,
         seed: args.seed,
-        ..FinalOptions::default()
     };
     Ok(render_final(
         device, scene, baked, &index, gbuffer, &options,

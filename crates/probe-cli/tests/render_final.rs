@@ -1,0 +1,110 @@
+//! `probes render --component final` from the command line: the diffuse options and the
+//! glossy blend reach the parts they set (and only those), and a blend over too many probes
+//! is refused in one line naming the flag.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn probes(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_probes"))
+        .args(args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .expect("the probes binary runs")
+}
+
+fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Renders the final image of `bake` with `extra` flags and `--split` into `dir/NAME.exr`;
+/// returns the bytes of the diffuse and the specular part.
+fn render_parts(bake: &Path, dir: &Path, name: &str, extra: &[&str]) -> (Vec<u8>, Vec<u8>) {
+    let out = dir.join(format!("{name}.exr"));
+    let mut args = vec![
+        "render",
+        bake.to_str().unwrap(),
+        "--component",
+        "final",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--emitter-samples",
+        "1",
+        "--split",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let output = probes(&args);
+    assert!(output.status.success(), "{name}: {}", stderr(&output));
+    let part = |part: &str| std::fs::read(dir.join(format!("{name}.{part}.exr"))).unwrap();
+    (part("diffuse"), part("specular"))
+}
+
+#[test]
+fn diffuse_options_and_glossy_blend_reach_the_final_image() {
+    let root = tempfile::tempdir().unwrap();
+    let bake = root.path().join("bake");
+    let output = probes(&[
+        "bake",
+        "builtin:cornell",
+        "--probes",
+        "grid:2x2x2",
+        "--res",
+        "16",
+        "--spp",
+        "2",
+        "--out",
+        bake.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+
+    let (diffuse, specular) = render_parts(&bake, root.path(), "default", &[]);
+    let (no_visibility, specular_same) = render_parts(
+        &bake,
+        root.path(),
+        "no-visibility",
+        &["--diffuse-options", "visibility=off"],
+    );
+    assert!(
+        diffuse != no_visibility,
+        "--diffuse-options did not change the final image's diffuse part"
+    );
+    assert!(
+        specular == specular_same,
+        "--diffuse-options changed the specular part"
+    );
+    let (diffuse_same, one_probe) =
+        render_parts(&bake, root.path(), "one-probe", &["--glossy-blend", "0"]);
+    assert!(
+        specular != one_probe,
+        "--glossy-blend 0 did not change the filtered specular part"
+    );
+    assert!(
+        diffuse == diffuse_same,
+        "--glossy-blend changed the diffuse part"
+    );
+
+    let out = root.path().join("refused.exr");
+    let output = probes(&[
+        "render",
+        bake.to_str().unwrap(),
+        "--component",
+        "final",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--glossy-blend",
+        "9",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!output.status.success());
+    let message = stderr(&output);
+    assert!(message.contains("glossy_blend"), "{message}");
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(!out.exists(), "a refused render wrote {}", out.display());
+}
