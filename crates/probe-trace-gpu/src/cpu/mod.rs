@@ -647,6 +647,23 @@ fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
 /// behind a thin wall, pass the ray through it). The selection's own candidates get the
 /// thickness; the nearest-probe extension, which knows nothing of visibility, is strict.
 fn sees_point(field: &PackedField, probe: u32, p: Vec3, strict: bool, fetches: &mut u32) -> bool {
+    sees_departure(field, probe, p, Vec3::ZERO, strict, fetches)
+}
+
+/// [`sees_point`] for the start of a ray leaving `p` along `direction` (zero: no direction).
+/// A ray starts on the surface it leaves; a probe on that surface's other side shows the same
+/// surface from behind, with `p` within its plane's thickness. It would see the ray pass
+/// straight behind what it stored and answer a hit at once (a self-hit). So a texel whose
+/// surface holds `p` within the thickness and faces away from `direction` (the ray leaves it
+/// through its back) does not see the departure. One fetch, as [`sees_point`].
+fn sees_departure(
+    field: &PackedField,
+    probe: u32,
+    p: Vec3,
+    direction: Vec3,
+    strict: bool,
+    fetches: &mut u32,
+) -> bool {
     let v = p - field.position(probe);
     let r = v.length();
     if r == 0.0 {
@@ -667,7 +684,11 @@ fn sees_point(field: &PackedField, probe: u32, p: Vec3, strict: bool, fetches: &
     let normal = crate::surface::unpack_normal(texel[1]);
     let surface = crate::surface::texel_surface(n, center, distance, normal, field.thickness_scale);
     let slack = if strict { 0.0 } else { surface.plane_thickness };
-    (v - center * distance).dot(surface.visible_normal) >= -slack
+    let offset = (v - center * distance).dot(surface.visible_normal);
+    if offset.abs() <= surface.plane_thickness && direction.dot(surface.visible_normal) < 0.0 {
+        return false;
+    }
+    offset >= -slack
 }
 
 /// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order, then the
@@ -747,7 +768,16 @@ pub(crate) fn trace_ray<O: RayObserver>(
         } else {
             probe = selector.candidate(&list, anchor, failed, next);
             let strict = next >= list.len;
-            if probe == NO_PROBE || !sees_point(field, probe, here, strict, &mut fetches) {
+            // At the ray's start, a candidate must see the ray leave (not the surface it
+            // leaves, from behind).
+            let departing = if t == ray.t_min {
+                direction
+            } else {
+                Vec3::ZERO
+            };
+            if probe == NO_PROBE
+                || !sees_departure(field, probe, here, departing, strict, &mut fetches)
+            {
                 next += 1;
                 continue;
             }

@@ -869,6 +869,14 @@ fn radiance_at(probe: u32, cell: vec2<u32>) -> vec3<f32> {
 
 // Whether `probe`'s depth map can show point p (src/cpu/mod.rs sees_point): one fetch.
 fn sees_point(probe: u32, p: vec3<f32>, strict: bool) -> bool {
+    return sees_departure(probe, p, vec3<f32>(0.0), strict);
+}
+
+// sees_point for the start of a ray leaving p along direction (zero: none): a texel whose
+// surface holds p within its plane's thickness and faces away from the direction shows the
+// surface the ray leaves from behind, so it does not see the departure (src/cpu/mod.rs
+// sees_departure).
+fn sees_departure(probe: u32, p: vec3<f32>, direction: vec3<f32>, strict: bool) -> bool {
     let v = p - positions[probe].xyz;
     let r = length(v);
     if (r == 0.0) {
@@ -891,7 +899,11 @@ fn sees_point(probe: u32, p: vec3<f32>, strict: bool) -> bool {
     if (strict) {
         slack = 0.0;
     }
-    return dot(v - center * distance, surface.visible_normal) >= -slack;
+    let offset = dot(v - center * distance, surface.visible_normal);
+    if (abs(offset) <= surface.plane_thickness && dot(direction, surface.visible_normal) < 0.0) {
+        return false;
+    }
+    return offset >= -slack;
 }
 
 // Interior texel (ix, iy), ix, iy in [-1, n], through the map's wrap (src/cpu/mod.rs
@@ -1238,7 +1250,13 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             }
         } else {
             probe = candidate(list, anchor, failed, next);
-            if (probe == NO_PROBE || !sees_point(probe, here, next >= list.len)) {
+            // At the ray's start, a candidate must see the ray leave (not the surface it
+            // leaves, from behind).
+            var departing = vec3<f32>(0.0);
+            if (t == ray.t_min) {
+                departing = direction;
+            }
+            if (probe == NO_PROBE || !sees_departure(probe, here, departing, next >= list.len)) {
                 next += 1u;
                 continue;
             }
