@@ -12,7 +12,10 @@ use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
     TraceSummary, Tracer,
 };
-use support::{accuracy, albedo_shade, camera_rays, mini_capture, reflection_rays, to_trace_rays};
+use support::{
+    accuracy, albedo_shade, camera_rays, cpu_grid_field, mini_capture, reflection_rays,
+    to_trace_rays,
+};
 
 /// A quad as two triangles, wound so that its normal points along `facing`.
 fn quad(out: &mut Vec<Triangle>, c: [Vec3; 4], facing: Vec3, material: u32) {
@@ -175,17 +178,10 @@ fn options(method: TraceMethod) -> TraceOptions {
 fn single_probe_sees_a_convex_room() {
     let scene = room(false);
     let shade = albedo_shade(&scene);
-    let mut tracer = CpuTracer::new();
     // Eight probes at the corners of a small cube around the centre, all inside the room.
     let grid = ProbeGrid::new(Vec3::new(-0.3, 1.2, -0.3), Vec3::splat(0.6), [2, 2, 2]).unwrap();
     let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
-    let field = tracer
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &FieldOptions::default(),
-        )
-        .unwrap();
+    let (mut tracer, field) = cpu_grid_field(&bake, grid);
     let mut rng = Lcg(9);
     let rays: Vec<Ray> = (0..2000)
         .map(|_| {
@@ -440,14 +436,7 @@ fn rays_leaving_a_wall_are_not_answered_by_the_probe_behind_it() {
     )
     .unwrap();
     let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
-    let mut tracer = CpuTracer::new();
-    let field = tracer
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &FieldOptions::default(),
-        )
-        .unwrap();
+    let (mut tracer, field) = cpu_grid_field(&bake, grid);
     let mut rng = Lcg(21);
     let rays: Vec<Ray> = (0..800)
         .map(|_| {

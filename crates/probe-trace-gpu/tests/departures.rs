@@ -7,8 +7,8 @@ mod support;
 use glam::{Vec2, Vec3};
 use probe_index::ProbeGrid;
 use probe_scene::{Ray, Scene};
-use probe_trace_gpu::{CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceOptions, Tracer};
-use support::{capture_bake, to_trace_rays};
+use probe_trace_gpu::{RayStatus, TraceOptions, Tracer};
+use support::{capture_bake, cpu_grid_field, to_trace_rays};
 
 #[test]
 fn rays_leaving_sponzas_surfaces_do_not_hit_at_their_start() {
@@ -36,14 +36,7 @@ fn rays_leaving_sponzas_surfaces_do_not_hit_at_their_start() {
     let spacing = (hi - lo) / Vec3::new(8.0, 2.0, 4.0);
     let grid = ProbeGrid::new(lo + spacing * 0.5, spacing, [8, 2, 4]).unwrap();
     let bake = capture_bake(&scene, &grid.positions(), 128);
-    let mut tracer = CpuTracer::new();
-    let field = tracer
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &FieldOptions::default(),
-        )
-        .unwrap();
+    let (mut tracer, field) = cpu_grid_field(&bake, grid);
     let results = tracer
         .trace(&field, &to_trace_rays(&rays), &TraceOptions::default())
         .unwrap()

@@ -7,7 +7,8 @@ use glam::{Vec2, Vec3};
 use probe_octa::{OctaLayout, OctaMap};
 use probe_scene::{Hit, Ray, Scene};
 use probe_trace_gpu::{
-    GpuContext, GpuTracer, IrradianceField, LightField, RayResult, RayStatus, TraceRay,
+    CpuField, CpuTracer, FieldOptions, GpuContext, GpuTracer, IrradianceField, LightField,
+    ProbeSelection, RayResult, RayStatus, TraceRay, Tracer,
 };
 use rayon::prelude::*;
 
@@ -395,6 +396,19 @@ pub fn reflection_rays(scene: &Scene, primary: &[Ray]) -> Vec<Ray> {
             Some(Ray::from_surface(hit.position, n, r))
         })
         .collect()
+}
+
+/// The CPU twin with `bake` uploaded (default options), its probes chosen by `grid`'s cage.
+pub fn cpu_grid_field(bake: &Bake, grid: probe_index::ProbeGrid) -> (CpuTracer, CpuField) {
+    let tracer = CpuTracer::new();
+    let field = tracer
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &FieldOptions::default(),
+        )
+        .expect("a valid bake and grid");
+    (tracer, field)
 }
 
 pub fn to_trace_rays(rays: &[Ray]) -> Vec<TraceRay> {
