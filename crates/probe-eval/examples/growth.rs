@@ -29,6 +29,7 @@ use probe_eval::pipeline::light_field;
 use probe_index::{SparseVoxelOctree, SvoOptions, Tetrahedralization};
 use probe_place::candidates::{ClassifyParams, RegularGrid, classify_grid};
 use probe_scene::{Aabb, Scene};
+use probe_testdata::Lcg;
 use probe_trace_gpu::{
     CpuTracer, DeviceFootprint, FieldOptions, ProbeSelection, TraceOptions, TraceRay, Tracer,
 };
@@ -107,19 +108,6 @@ fn slope(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
-/// A deterministic generator for the ray set.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
-    }
-}
-
 struct Measure {
     stage: &'static str,
     probes: usize,
@@ -178,10 +166,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut rng = Lcg(16);
     let rays: Vec<TraceRay> = (0..ray_count)
         .map(|_| {
-            let t = Vec3::new(rng.next(), rng.next(), rng.next());
+            let t = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
             let origin = region.min + region.size() * t;
-            let z = 2.0 * rng.next() - 1.0;
-            let phi = std::f32::consts::TAU * rng.next();
+            let z = 2.0 * rng.uniform() - 1.0;
+            let phi = std::f32::consts::TAU * rng.uniform();
             let r = (1.0 - z * z).max(0.0).sqrt();
             TraceRay::new(origin, Vec3::new(r * phi.cos(), z, r * phi.sin()))
         })

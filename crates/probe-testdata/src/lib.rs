@@ -1,7 +1,8 @@
 //! Locates the shared test scenes (`../shared/scenes/` beside the workspace root) for the
 //! workspace's tests, examples and benchmarks, so that no test spells a relative path itself;
-//! and reads a folder's files for tests that compare outputs byte for byte
-//! ([`folder_contents`]).
+//! reads a folder's files for tests that compare outputs byte for byte
+//! ([`folder_contents`]); and draws the deterministic numbers tests build their random cases
+//! from ([`Lcg`]).
 //!
 //! The folder can be moved with the `PROBE_SCENES_DIR` environment variable.
 //!
@@ -71,4 +72,29 @@ pub fn folder_contents(dir: &Path) -> std::io::Result<Vec<(String, Vec<u8>)>> {
         .collect::<std::io::Result<Vec<_>>>()?;
     files.sort();
     Ok(files)
+}
+
+/// Deterministic numbers in `[0, 1)` from a seed (a 64-bit linear congruential generator,
+/// Knuth's MMIX constants, the top 24 bits): the same seed gives the same numbers on every
+/// machine, so tests that draw random cases from it are reproducible.
+///
+/// ```
+/// let mut a = probe_testdata::Lcg(7);
+/// let mut b = probe_testdata::Lcg(7);
+/// let x = a.uniform();
+/// assert!((0.0..1.0).contains(&x));
+/// assert_eq!(x, b.uniform());
+/// ```
+#[derive(Clone, Debug)]
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// The next number, in `[0, 1)`.
+    pub fn uniform(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
 }

@@ -8,6 +8,7 @@ use probe_index::{
     NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
 };
 use probe_scene::{Material, Ray, Scene, Triangle};
+use probe_testdata::Lcg;
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
     TraceSummary, Tracer,
@@ -142,21 +143,15 @@ fn room(pillar: bool) -> Scene {
     Scene::from_triangles("room", triangles, materials, Vec::new(), Vec::new()).unwrap()
 }
 
-/// Deterministic pseudo-random numbers in [0, 1).
-struct Lcg(u64);
+/// Unit directions drawn from the tests' deterministic numbers.
+trait Draw {
+    fn direction(&mut self) -> Vec3;
+}
 
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-
+impl Draw for Lcg {
     fn direction(&mut self) -> Vec3 {
         loop {
-            let v = Vec3::new(self.next(), self.next(), self.next()) * 2.0 - Vec3::ONE;
+            let v = Vec3::new(self.uniform(), self.uniform(), self.uniform()) * 2.0 - Vec3::ONE;
             let l = v.length();
             if l > 0.05 && l <= 1.0 {
                 return v / l;
@@ -186,9 +181,9 @@ fn single_probe_sees_a_convex_room() {
     let rays: Vec<Ray> = (0..2000)
         .map(|_| {
             let o = Vec3::new(
-                rng.next() * 3.6 - 1.8,
-                0.2 + rng.next() * 2.6,
-                rng.next() * 3.6 - 1.8,
+                rng.uniform() * 3.6 - 1.8,
+                0.2 + rng.uniform() * 2.6,
+                rng.uniform() * 3.6 - 1.8,
             );
             Ray::new(o, rng.direction())
         })
@@ -255,9 +250,9 @@ fn hand_off_past_an_occluder() {
     let rays: Vec<Ray> = (0..1500)
         .filter_map(|_| {
             let o = Vec3::new(
-                rng.next() * 3.6 - 1.8,
-                0.2 + rng.next() * 2.6,
-                rng.next() * 3.6 - 1.8,
+                rng.uniform() * 3.6 - 1.8,
+                0.2 + rng.uniform() * 2.6,
+                rng.uniform() * 3.6 - 1.8,
             );
             (o.x.abs() > 0.5 || o.z.abs() > 0.5).then(|| Ray::new(o, rng.direction()))
         })
@@ -440,7 +435,7 @@ fn rays_leaving_a_wall_are_not_answered_by_the_probe_behind_it() {
     let mut rng = Lcg(21);
     let rays: Vec<Ray> = (0..800)
         .map(|_| {
-            let at = Vec3::new(0.0, 0.3 + rng.next() * 2.4, rng.next() * 3.4 - 1.7);
+            let at = Vec3::new(0.0, 0.3 + rng.uniform() * 2.4, rng.uniform() * 3.4 - 1.7);
             let mut d = rng.direction();
             d.x = d.x.abs().max(0.05);
             Ray::from_surface(at, Vec3::X, d.normalize())

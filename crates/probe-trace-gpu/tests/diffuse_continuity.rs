@@ -12,6 +12,7 @@
 
 use glam::{Vec2, Vec3};
 use probe_index::Tetrahedralization;
+use probe_testdata::Lcg;
 use probe_trace_gpu::{
     CpuTracer, DiffuseOptions, Interpolation, IrradianceField, ShadingPoint, Tracer,
 };
@@ -50,19 +51,6 @@ fn smallest_height(tets: &Tetrahedralization) -> f32 {
     smallest
 }
 
-/// Deterministic numbers in `[0, 1)` from a seed.
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 /// The property for one probe set (`seed`) and options; an error names the first pair whose
 /// difference does not shrink with the distance between its points.
 fn blend_is_continuous(
@@ -77,7 +65,7 @@ fn blend_is_continuous(
     let positions: Vec<Vec3> = (0..27)
         .map(|i| {
             let cell = Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32);
-            cell + (Vec3::new(rng.next(), rng.next(), rng.next()) - 0.5) * 0.4
+            cell + (Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) - 0.5) * 0.4
         })
         .collect();
     let count = positions.len();
@@ -92,7 +80,7 @@ fn blend_is_continuous(
     let irradiance_texels = ((IRRADIANCE_RESOLUTION + 2) * (IRRADIANCE_RESOLUTION + 2)) as usize;
     let moments_texels = ((MOMENTS_RESOLUTION + 2) * (MOMENTS_RESOLUTION + 2)) as usize;
     let colours: Vec<Vec3> = (0..count)
-        .map(|_| Vec3::new(rng.next(), rng.next(), rng.next()))
+        .map(|_| Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()))
         .collect();
     let irradiance: Vec<Vec3> = colours
         .iter()
@@ -102,7 +90,7 @@ fn blend_is_continuous(
     // Chebyshev test really occludes points beyond it.
     let moments: Vec<Vec2> = (0..count)
         .flat_map(|_| {
-            let mean = 0.3 + 1.5 * rng.next();
+            let mean = 0.3 + 1.5 * rng.uniform();
             std::iter::repeat_n(Vec2::new(mean, mean * mean + 0.01), moments_texels)
         })
         .collect();
@@ -129,20 +117,24 @@ fn blend_is_continuous(
     let records = tets.tetrahedra();
     let mut pairs = Vec::new();
     for _ in 0..64 {
-        let record = &records[(rng.next() * records.len() as f32) as usize % records.len()];
-        let face = (rng.next() * 4.0) as usize % 4;
+        let record = &records[(rng.uniform() * records.len() as f32) as usize % records.len()];
+        let face = (rng.uniform() * 4.0) as usize % 4;
         let corners: Vec<Vec3> = (0..4)
             .filter(|&k| k != face)
             .map(|k| positions[record.vertices[k] as usize])
             .collect();
-        let (u, v) = (rng.next() * 3.0 - 1.0, rng.next() * 3.0 - 1.0);
+        let (u, v) = (rng.uniform() * 3.0 - 1.0, rng.uniform() * 3.0 - 1.0);
         let on_plane = corners[0] + (corners[1] - corners[0]) * u + (corners[2] - corners[0]) * v;
         let normal = (corners[1] - corners[0])
             .cross(corners[2] - corners[0])
             .normalize();
-        let shading_normal = Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5)
-            .try_normalize()
-            .unwrap_or(Vec3::Y);
+        let shading_normal = Vec3::new(
+            rng.uniform() - 0.5,
+            rng.uniform() - 0.5,
+            rng.uniform() - 0.5,
+        )
+        .try_normalize()
+        .unwrap_or(Vec3::Y);
         for half in [WIDE, NARROW] {
             pairs.push(ShadingPoint::new(on_plane - normal * half, shading_normal));
             pairs.push(ShadingPoint::new(on_plane + normal * half, shading_normal));

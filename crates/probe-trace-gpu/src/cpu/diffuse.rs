@@ -404,30 +404,19 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Deterministic numbers in `[0, 1)` from a seed.
-    struct Lcg(u64);
-
-    impl Lcg {
-        fn next(&mut self) -> f32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
+    use probe_testdata::Lcg;
 
     /// A probe set of kind `kind % 3`: a regular grid (cospherical, with coplanar hull
     /// triangles), a jittered grid, or uniform random points; 2 to 5 probes a side.
     fn probe_set(rng: &mut Lcg, kind: u32) -> Vec<Vec3> {
-        let side = |rng: &mut Lcg| 2 + (rng.next() * 4.0) as u32;
+        let side = |rng: &mut Lcg| 2 + (rng.uniform() * 4.0) as u32;
         let (nx, ny, nz) = (side(rng), side(rng), side(rng));
         let spacing = Vec3::new(
-            0.3 + rng.next() * 1.5,
-            0.3 + rng.next() * 1.5,
-            0.3 + rng.next() * 1.5,
+            0.3 + rng.uniform() * 1.5,
+            0.3 + rng.uniform() * 1.5,
+            0.3 + rng.uniform() * 1.5,
         );
-        let origin = Vec3::new(rng.next(), rng.next(), rng.next()) * 10.0 - 5.0;
+        let origin = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 10.0 - 5.0;
         let count = nx * ny * nz;
         (0..count)
             .map(|i| {
@@ -436,7 +425,7 @@ mod tests {
                     ((i / nx) % ny) as f32,
                     (i / (nx * ny)) as f32,
                 );
-                let r = Vec3::new(rng.next(), rng.next(), rng.next());
+                let r = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
                 origin
                     + spacing
                         * match kind % 3 {
@@ -498,7 +487,7 @@ mod tests {
         let mut outside = 0;
         for _ in 0..64 {
             // Around the probes' box, out to its size beyond each side.
-            let r = Vec3::new(rng.next(), rng.next(), rng.next());
+            let r = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform());
             let x = lo - (hi - lo) + r * (hi - lo) * 3.0;
             let reference = tets.locate(x).unwrap();
             if reference.outside_distance <= 1e-3 * size {

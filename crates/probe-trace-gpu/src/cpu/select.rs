@@ -327,7 +327,7 @@ mod tests {
                     if set % 2 == 0 {
                         Vec3::new((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32)
                     } else {
-                        Vec3::new(rng.next(), rng.next(), rng.next()) * 4.0
+                        Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 4.0
                     }
                 })
                 .collect();
@@ -343,7 +343,7 @@ mod tests {
                 })
                 .collect();
             for _ in 0..50 {
-                let p = Vec3::new(rng.next(), rng.next(), rng.next()) * 5.0 - 0.5;
+                let p = Vec3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 5.0 - 0.5;
                 let mut brute: Vec<(u32, f32)> = positions
                     .iter()
                     .enumerate()
@@ -363,20 +363,17 @@ mod tests {
         }
     }
 
-    /// Deterministic numbers in [0, 1).
-    struct Lcg(u64);
+    use probe_testdata::Lcg;
 
-    impl Lcg {
-        fn next(&mut self) -> f32 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
+    /// Points and directions drawn from the tests' deterministic numbers.
+    trait Draw {
+        fn point(&mut self, lo: Vec3, hi: Vec3) -> Vec3;
+        fn direction(&mut self) -> Vec3;
+    }
 
+    impl Draw for Lcg {
         fn point(&mut self, lo: Vec3, hi: Vec3) -> Vec3 {
-            lo + (hi - lo) * Vec3::new(self.next(), self.next(), self.next())
+            lo + (hi - lo) * Vec3::new(self.uniform(), self.uniform(), self.uniform())
         }
 
         fn direction(&mut self) -> Vec3 {
@@ -440,7 +437,7 @@ mod tests {
             );
             let failed = match start.as_slice().first() {
                 Some(&p) if i % 2 == 0 => p,
-                _ => (rng.next() * positions.len() as f32) as u32 % positions.len() as u32,
+                _ => (rng.uniform() * positions.len() as f32) as u32 % positions.len() as u32,
             };
             let after = reference.select(&ProbeQuery {
                 position,
