@@ -2,20 +2,11 @@
 //! requests over `--max-memory` refused in one line before work starts, and a failed bake
 //! writing nothing over the bake already there.
 
+mod support;
+
 use probe_testdata::folder_contents;
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn probes(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_probes"))
-        .args(args)
-        .output()
-        .expect("the probes binary runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+use support::{probes, stderr};
 
 /// One triangle, and a texture pointing at an image that does not exist, which no material
 /// uses.

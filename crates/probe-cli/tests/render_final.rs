@@ -2,20 +2,10 @@
 //! glossy blend reach the parts they set (and only those), and a blend over too many probes
 //! is refused in one line naming the flag.
 
+mod support;
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn probes(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_probes"))
-        .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .expect("the probes binary runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+use support::{probes, stderr};
 
 /// Renders the final image of `bake` with `extra` flags and `--split` into `dir/NAME.exr`;
 /// returns the bytes of the diffuse and the specular part.

@@ -2,20 +2,12 @@
 //! run at once and `probes bake-merge` joins their partial bakes into the bake an unsharded
 //! run writes, byte for byte; bad shard lists are refused in one line.
 
+mod support;
+
 use probe_testdata::folder_contents;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn probes(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_probes"))
-        .args(args)
-        .output()
-        .expect("the probes binary runs")
-}
-
-fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
-}
+use std::process::Command;
+use support::{probes, stderr};
 
 /// The bake options every run shares: the Cornell box, 3×1×2 probes at 8², adaptive sampling.
 const BAKE: [&str; 12] = [
