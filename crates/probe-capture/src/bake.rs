@@ -4,7 +4,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{Vec2, Vec3};
 use probe_octa::{
-    FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, Texel, irradiance_map, lobe_mean,
+    FineRead, MinMaxPyramid, OctaLayout, OctaMap, ShL2Rgb, Surfel, Texel, irradiance_map,
+    lobe_mean, surfel_map,
 };
 use probe_scene::memory::{MemoryExceeded, MemoryLimit};
 use probe_scene::{Ray, Scene};
@@ -64,6 +65,15 @@ pub struct BakeSettings {
     /// cost `source texels × output texels`, so this bounds their time at high resolutions
     /// while staying far finer than their lobes. A power of two from 1 to 1024. Default 128.
     pub filter_source_resolution: u32,
+    /// Surfels per side of each probe ([`probe_octa::surfel_map`]): the probe's texels
+    /// grouped into `S×S` surface patches (centroid, normal, area, indirect radiance, sky) from
+    /// which diffuse shading re-gathers the light arriving at points away from the probe (the
+    /// near-field correction, `probe_trace_gpu::DiffuseOptions::parallax`). A power of two up
+    /// to 1024, or 0 for none; a bake of lower `resolution` makes one surfel per texel
+    /// ([`Self::surfels_per_side`]). Default 8 (64 surfels, 4 KiB per probe): chosen by
+    /// measurement against the shading cost (BENCHMARKS.md, "Near-field diffuse"; 16 lowers
+    /// the Cornell box's diffuse error a further 1.8× at 2.5× the shading time).
+    pub surfel_resolution: u32,
 }
 
 /// How many radiance samples each texel of a bake takes.
@@ -176,6 +186,7 @@ impl Default for BakeSettings {
             moments_max_distance: None,
             irradiance_resolution: probe_octa::DDGI_IRRADIANCE_RESOLUTION,
             filter_source_resolution: 128,
+            surfel_resolution: 8,
         }
     }
 }
@@ -243,6 +254,9 @@ pub enum BakeError {
 /// while the EXR layers are written (47 more), and slack for the per-thread sample sums.
 const BYTES_PER_BAKE_TEXEL: u64 = 124;
 
+/// Bytes of one [`Surfel`] (eleven floats plus two vectors of three; rounded up).
+const SURFEL_BYTES: u64 = 64;
+
 /// The memory a bake of `probes` probes with `settings` plans to use (its maps, their copies
 /// while saving, and the derived maps), in bytes: what [`bake_with_limit`] and
 /// [`ProbeBake::load_with_limit`](crate::ProbeBake::load_with_limit) compare with their limit
@@ -251,7 +265,8 @@ pub fn bake_memory_estimate(probes: usize, settings: &BakeSettings) -> u64 {
     let padded = |r: u32| (u64::from(r) + 2).pow(2);
     let per_probe = padded(settings.resolution).saturating_mul(BYTES_PER_BAKE_TEXEL)
         + 2 * (padded(settings.moments_resolution) * 8
-            + padded(settings.irradiance_resolution) * 12)
+            + padded(settings.irradiance_resolution) * 12
+            + u64::from(settings.surfels_per_side()).pow(2) * SURFEL_BYTES)
         + 9 * 12;
     (probes as u64).saturating_mul(per_probe)
 }
@@ -305,6 +320,11 @@ fn check_capture(positions: &[Vec3], resolution: u32) -> Result<OctaLayout, Bake
 }
 
 impl BakeSettings {
+    /// Surfels per side each probe gets: [`Self::surfel_resolution`], at most `resolution`.
+    pub fn surfels_per_side(&self) -> u32 {
+        self.surfel_resolution.min(self.resolution)
+    }
+
     /// Checks every field (as [`bake`] does).
     ///
     /// # Errors
@@ -340,6 +360,14 @@ impl BakeSettings {
                 "filter_source_resolution",
                 f,
                 "must be a power of two from 1 to 1024",
+            ));
+        }
+        let surfels = self.surfel_resolution;
+        if surfels != 0 && (!surfels.is_power_of_two() || surfels > MAX_BAKE_RESOLUTION) {
+            return Err(invalid(
+                "surfel_resolution",
+                surfels,
+                "must be 0 (none) or a power of two up to 1024",
             ));
         }
         if !(self.moments_lobe_power.is_finite() && self.moments_lobe_power >= 0.0) {
@@ -732,6 +760,7 @@ pub struct ProbeBake {
     pub(crate) moments: Vec<Vec2>,
     pub(crate) irradiance: Vec<Vec3>,
     pub(crate) sh: Vec<ShL2Rgb>,
+    pub(crate) surfels: Vec<Surfel>,
     pub(crate) stats: Vec<ProbeStats>,
     pub(crate) sampling: Vec<ProbeSampling>,
 }
@@ -860,6 +889,14 @@ impl ProbeBake {
     /// L2 spherical harmonics of each probe's radiance.
     pub fn sh(&self) -> &[ShL2Rgb] {
         &self.sh
+    }
+
+    /// The surfels of all probes, [`BakeSettings::surfels_per_side`]² per probe, probe after
+    /// probe ([`probe_octa::surfel_map`] of the radiance without emission, as the irradiance
+    /// maps): empty when the bake has none (a surfel resolution of 0, or a bake saved before
+    /// surfels existed).
+    pub fn surfels(&self) -> &[Surfel] {
+        &self.surfels
     }
 
     /// Per-probe statistics.
@@ -1029,9 +1066,13 @@ pub(crate) fn bake_probes(
             let maps = derived_maps(
                 layout,
                 &reducer,
-                &radiance[p * len..(p + 1) * len],
-                &reflected[p * len..(p + 1) * len],
-                &geometry.distances[p * len..(p + 1) * len],
+                ProbeMaps {
+                    position: positions[p],
+                    radiance: &radiance[p * len..(p + 1) * len],
+                    reflected: &reflected[p * len..(p + 1) * len],
+                    distances: &geometry.distances[p * len..(p + 1) * len],
+                    normals: &geometry.normals[p * len..(p + 1) * len],
+                },
                 settings,
                 moments_max_distance,
             );
@@ -1043,8 +1084,10 @@ pub(crate) fn bake_probes(
     let mut moments = Vec::new();
     let mut irradiance = Vec::new();
     let mut sh = Vec::with_capacity(probes);
+    let mut surfels = Vec::new();
     let mut pyramid_levels = 0;
     for maps in derived {
+        surfels.extend(maps.surfels);
         pyramid_levels = maps.pyramid_levels;
         pyramid.extend(maps.pyramid);
         moments.extend_from_slice(maps.moments.texels());
@@ -1072,6 +1115,7 @@ pub(crate) fn bake_probes(
         moments,
         irradiance,
         sh,
+        surfels,
         stats: geometry.stats,
         sampling,
     })
@@ -1360,6 +1404,7 @@ fn radiance_pass(
 }
 
 struct DerivedMaps {
+    surfels: Vec<Surfel>,
     pyramid_levels: u32,
     pyramid: Vec<Vec2>,
     moments: OctaMap<Vec2>,
@@ -1367,15 +1412,30 @@ struct DerivedMaps {
     sh: ShL2Rgb,
 }
 
+/// One probe's full-resolution maps, padded.
+struct ProbeMaps<'a> {
+    position: Vec3,
+    radiance: &'a [Vec3],
+    /// The radiance without emission.
+    reflected: &'a [Vec3],
+    distances: &'a [f32],
+    normals: &'a [Vec3],
+}
+
 fn derived_maps(
     layout: OctaLayout,
     reducer: &Reducer,
-    radiance: &[Vec3],
-    reflected: &[Vec3],
-    distances: &[f32],
+    maps: ProbeMaps<'_>,
     settings: &BakeSettings,
     moments_max_distance: f32,
 ) -> Result<DerivedMaps, BakeError> {
+    let ProbeMaps {
+        position,
+        radiance,
+        reflected,
+        distances,
+        normals,
+    } = maps;
     let n = layout.resolution();
     let distance = OctaMap::from_padded(n, distances.to_vec())
         .map_err(|_| invalid("resolution", n, "must be a power of two from 1 to 1024"))?;
@@ -1411,6 +1471,27 @@ fn derived_maps(
     })?;
     let reflected = OctaMap::from_padded(n, reflected.to_vec())
         .map_err(|_| invalid("resolution", n, "must be a power of two from 1 to 1024"))?;
+    let surfels = if settings.surfels_per_side() == 0 {
+        Vec::new()
+    } else {
+        let normals = OctaMap::from_padded(n, normals.to_vec())
+            .map_err(|_| invalid("resolution", n, "must be a power of two from 1 to 1024"))?;
+        surfel_map(
+            position,
+            &distance,
+            &normals,
+            &reflected,
+            MISS_DISTANCE,
+            settings.surfels_per_side(),
+        )
+        .map_err(|_| {
+            invalid(
+                "surfel_resolution",
+                settings.surfel_resolution,
+                "must be 0 (none) or a power of two up to 1024",
+            )
+        })?
+    };
     let irradiance_source = reducer.reduce(&reflected);
     let irradiance =
         irradiance_map(&irradiance_source, settings.irradiance_resolution).map_err(|_| {
@@ -1421,6 +1502,7 @@ fn derived_maps(
             )
         })?;
     Ok(DerivedMaps {
+        surfels,
         pyramid_levels: pyramid.level_count() as u32,
         pyramid: levels,
         moments,

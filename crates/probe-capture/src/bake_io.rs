@@ -5,7 +5,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
-use probe_octa::{OctaLayout, ShL2Rgb};
+use probe_octa::{OctaLayout, ShL2Rgb, Surfel};
 use probe_scene::Scene;
 use probe_scene::memory::MemoryLimit;
 use serde::{Deserialize, Serialize};
@@ -310,6 +310,9 @@ struct ManifestSettings {
     moments_max_distance: Option<f32>,
     irradiance_resolution: u32,
     filter_source_resolution: u32,
+    /// Absent in bakes saved before surfels existed: none.
+    #[serde(default)]
+    surfel_resolution: u32,
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -413,6 +416,61 @@ fn split_channels<const K: usize>(
     channels
 }
 
+/// The channels of a surfel layer, in [`surfel_channels`]' order.
+const SURFEL_CHANNELS: [&str; 17] = [
+    "surfel.X",
+    "surfel.Y",
+    "surfel.Z",
+    "surfel.area",
+    "surfel.normal.X",
+    "surfel.normal.Y",
+    "surfel.normal.Z",
+    "surfel.R",
+    "surfel.G",
+    "surfel.B",
+    "sky.solid_angle",
+    "sky.X",
+    "sky.Y",
+    "sky.Z",
+    "sky.R",
+    "sky.G",
+    "sky.B",
+];
+
+fn surfel_channels(s: &Surfel) -> [f32; 17] {
+    [
+        s.position.x,
+        s.position.y,
+        s.position.z,
+        s.area,
+        s.normal.x,
+        s.normal.y,
+        s.normal.z,
+        s.radiance.x,
+        s.radiance.y,
+        s.radiance.z,
+        s.sky_solid_angle,
+        s.sky_direction.x,
+        s.sky_direction.y,
+        s.sky_direction.z,
+        s.sky_radiance.x,
+        s.sky_radiance.y,
+        s.sky_radiance.z,
+    ]
+}
+
+fn surfel_from_channels(c: &[f32; 17]) -> Surfel {
+    Surfel {
+        position: Vec3::new(c[0], c[1], c[2]),
+        area: c[3],
+        normal: Vec3::new(c[4], c[5], c[6]),
+        radiance: Vec3::new(c[7], c[8], c[9]),
+        sky_solid_angle: c[10],
+        sky_direction: Vec3::new(c[11], c[12], c[13]),
+        sky_radiance: Vec3::new(c[14], c[15], c[16]),
+    }
+}
+
 /// The files of a bake, in memory, with the layers they hold.
 fn bake_files(bake: &ProbeBake) -> Vec<(&'static str, &'static str, Vec<ExrLayer>)> {
     let probes = bake.probe_count();
@@ -435,6 +493,24 @@ fn bake_files(bake: &ProbeBake) -> Vec<(&'static str, &'static str, Vec<ExrLayer
             width: size,
             height: size * probes,
             channels: split_channels(["pyramid.min", "pyramid.max"], texels),
+        });
+    }
+    let mut irradiance_layers = vec![ExrLayer {
+        name: "irradiance".into(),
+        width: irradiance_side,
+        height: irradiance_side * probes,
+        channels: split_channels(
+            ["irradiance.R", "irradiance.G", "irradiance.B"],
+            bake.irradiance.iter().map(|v| v.to_array()),
+        ),
+    }];
+    let surfels_side = (bake.settings.surfels_per_side() as usize).pow(2);
+    if surfels_side > 0 {
+        irradiance_layers.push(ExrLayer {
+            name: "surfels".into(),
+            width: surfels_side,
+            height: probes,
+            channels: split_channels(SURFEL_CHANNELS, bake.surfels.iter().map(surfel_channels)),
         });
     }
     vec![
@@ -495,16 +571,8 @@ fn bake_files(bake: &ProbeBake) -> Vec<(&'static str, &'static str, Vec<ExrLayer
         ),
         (
             IRRADIANCE_FILE,
-            "irradiance (cosine convolution of radiance), (K+2)² padded per probe, probes stacked vertically",
-            vec![ExrLayer {
-                name: "irradiance".into(),
-                width: irradiance_side,
-                height: irradiance_side * probes,
-                channels: split_channels(
-                    ["irradiance.R", "irradiance.G", "irradiance.B"],
-                    bake.irradiance.iter().map(|v| v.to_array()),
-                ),
-            }],
+            "irradiance (cosine convolution of radiance), (K+2)² padded per probe, probes stacked vertically; surfels (when the settings ask for them): S² per probe in a row, one row per probe",
+            irradiance_layers,
         ),
         (
             SH_FILE,
@@ -648,6 +716,7 @@ impl ProbeBake {
                 moments_max_distance: s.moments_max_distance,
                 irradiance_resolution: s.irradiance_resolution,
                 filter_source_resolution: s.filter_source_resolution,
+                surfel_resolution: s.surfel_resolution,
             },
             environment: ManifestEnvironment::from(&self.environment),
             moments_max_distance: self.moments_max_distance,
@@ -858,6 +927,21 @@ impl ProbeBake {
         )?
         .map(Vec3::from_array)
         .collect();
+        let surfels_side = (checked.settings.surfels_per_side() as usize).pow(2);
+        let surfels = if surfels_side == 0 {
+            Vec::new()
+        } else {
+            take_channels(
+                dir,
+                IRRADIANCE_FILE,
+                &irradiance_layers,
+                "surfels",
+                (surfels_side, probes),
+                SURFEL_CHANNELS,
+            )?
+            .map(|c| surfel_from_channels(&c))
+            .collect()
+        };
         let sh_layers = read_file(dir, SH_FILE)?;
         let coefficients: Vec<Vec3> = take_channels(
             dir,
@@ -894,6 +978,7 @@ impl ProbeBake {
             moments,
             irradiance,
             sh,
+            surfels,
             stats: manifest
                 .stats
                 .iter()
@@ -1088,6 +1173,7 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
         moments_max_distance: s.moments_max_distance,
         irradiance_resolution: s.irradiance_resolution,
         filter_source_resolution: s.filter_source_resolution,
+        surfel_resolution: s.surfel_resolution,
     };
     settings.validate().map_err(|e| e.to_string())?;
     if m.resolution != s.resolution || m.resolution > MAX_BAKE_RESOLUTION {

@@ -435,8 +435,9 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
         moments_max_distance,
         irradiance_resolution,
         filter_source_resolution,
+        surfel_resolution,
     } = a;
-    let fields: [(&str, String, String); 11] = [
+    let fields: [(&str, String, String); 12] = [
         (
             "resolution",
             format!("{resolution}"),
@@ -483,6 +484,11 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
             "filter_source_resolution",
             format!("{filter_source_resolution}"),
             format!("{}", b.filter_source_resolution),
+        ),
+        (
+            "surfel_resolution",
+            format!("{surfel_resolution}"),
+            format!("{}", b.surfel_resolution),
         ),
     ];
     fields
@@ -654,6 +660,7 @@ fn append(whole: &mut ProbeBake, part: ProbeBake) {
         moments,
         irradiance,
         sh,
+        surfels,
         stats,
         sampling,
     } = part;
@@ -666,6 +673,7 @@ fn append(whole: &mut ProbeBake, part: ProbeBake) {
     whole.moments.extend(moments);
     whole.irradiance.extend(irradiance);
     whole.sh.extend(sh);
+    whole.surfels.extend(surfels);
     whole.stats.extend(stats);
     whole.sampling.extend(sampling);
 }

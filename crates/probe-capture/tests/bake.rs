@@ -90,6 +90,7 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
     assert_eq!(probes.pyramid_level_count(), 3);
     assert_eq!(probes.pyramid_texels_per_probe(), 256 + 64 + 16);
     assert_eq!(probes.pyramid().len(), 3 * (256 + 64 + 16));
+    assert_eq!(probes.surfels().len(), 3 * 8 * 8);
     for p in 0..3 {
         let distance = probes.distance_map(p).unwrap();
         let radiance = probes.radiance_map(p).unwrap();
@@ -156,6 +157,20 @@ fn derived_maps_are_probe_octa_filters_of_the_maps() {
         for (a, b) in indirect.texels().iter().zip(with_light.texels()) {
             assert!((*a - *b).max_element() <= 1e-4 * b.max_element().max(1e-6));
         }
+        // The surfels hold the same light without emission: gathered at the probe facing the
+        // light they give about the indirect irradiance (coarsely: 8² surfels of a 16² map),
+        // well below the irradiance with the light.
+        let surfels = &probes.surfels()[p * 64..(p + 1) * 64];
+        let gathered = probe_octa::surfel_irradiance(surfels, probes.positions()[p], up);
+        let (map, lit) = (texel(&indirect, up), texel(&with_light, up));
+        assert!(
+            (gathered - map).abs().max_element() <= 0.5 * map.max_element() + 1e-3,
+            "probe {p}: surfels {gathered}, indirect map {map}, with light {lit}"
+        );
+        assert!(
+            p == 2 || gathered.x < 0.8 * lit.x,
+            "probe {p}: {gathered} vs {lit}"
+        );
         assert_eq!(probes.sh()[p], ShL2Rgb::project(&radiance));
         // Sane values: finite, non-negative radiance; some light everywhere in the box.
         assert!(
@@ -496,6 +511,31 @@ fn save_and_load_round_trip_exactly() {
         MISS_DISTANCE
     );
     assert_eq!(manifest["settings"]["samples_per_texel"], 2);
+}
+
+/// A bake saved before surfels existed (no `surfel_resolution` in its manifest) loads with
+/// none, and everything else as saved.
+#[test]
+fn bakes_saved_before_surfels_load_without_them() {
+    let (scene, probes) = baked_cornell();
+    assert!(!probes.surfels().is_empty());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bake");
+    probes.save(&path).unwrap();
+    let manifest_path = path.join(MANIFEST_FILE);
+    let mut manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&manifest_path).unwrap()).unwrap();
+    manifest["settings"]
+        .as_object_mut()
+        .unwrap()
+        .remove("surfel_resolution")
+        .unwrap();
+    std::fs::write(&manifest_path, manifest.to_string()).unwrap();
+    let loaded = ProbeBake::load(&path, Some(&scene)).unwrap();
+    assert!(loaded.surfels().is_empty());
+    assert_eq!(loaded.settings().surfel_resolution, 0);
+    assert_eq!(loaded.irradiance(), probes.irradiance());
+    assert_eq!(loaded.radiance(), probes.radiance());
 }
 
 #[test]

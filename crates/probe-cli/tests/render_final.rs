@@ -1,5 +1,6 @@
-//! `probes render --component final` from the command line: the diffuse options and the
-//! glossy blend reach the parts they set (and only those), and a blend over too many probes
+//! `probes render --component final` from the command line: the diffuse options (the
+//! surfels' near-field correction among them) and the glossy blend reach the parts they set
+//! (and only those), and a blend over too many probes
 //! is refused in one line naming the flag.
 
 mod support;
@@ -65,6 +66,22 @@ fn diffuse_options_and_glossy_blend_reach_the_final_image() {
     assert!(
         specular == specular_same,
         "--diffuse-options changed the specular part"
+    );
+    // The bake holds surfels (`BakeSettings::surfel_resolution`), so turning the near-field
+    // correction off changes the diffuse part, and only it.
+    let (plain, specular_same) = render_parts(
+        &bake,
+        root.path(),
+        "no-parallax",
+        &["--diffuse-options", "parallax=off"],
+    );
+    assert!(
+        diffuse != plain,
+        "parallax=off did not change the final image's diffuse part"
+    );
+    assert!(
+        specular == specular_same,
+        "parallax=off changed the specular part"
     );
     let (diffuse_same, one_probe) =
         render_parts(&bake, root.path(), "one-probe", &["--glossy-blend", "0"]);

@@ -92,6 +92,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let baked = ProbeBake::load(&dir, Some(&scene))?;
                 if baked.positions() == positions.as_slice()
                     && baked.settings().resolution == resolution
+                    && baked.settings().surfel_resolution == settings(seed).surfel_resolution
                 {
                     return Ok((baked, f64::NAN));
                 }
@@ -121,19 +122,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reference = Some(r);
         }
         let reference = reference.as_ref().expect("rendered above");
-        // Filtered specular blended over the default 4 probes, read from the answering probe
-        // alone, and stochastic: one run, so the ratios between them share the load.
+        // Filtered specular blended over the default 4 probes (and again with the diffuse
+        // part's near-field correction off), read from the answering probe alone, and
+        // stochastic: one run, so the ratios between them share the load.
         let blended = FinalOptions::default().glossy_blend;
-        for (specular, glossy_blend) in [
-            (SpecularMode::Filtered, blended),
-            (SpecularMode::Filtered, 0),
-            (SpecularMode::Stochastic, blended),
+        for (specular, glossy_blend, parallax) in [
+            (SpecularMode::Filtered, blended, true),
+            (SpecularMode::Filtered, blended, false),
+            (SpecularMode::Filtered, 0, true),
+            (SpecularMode::Stochastic, blended, true),
         ] {
-            let mode = match (specular, glossy_blend) {
+            let mut mode = match (specular, glossy_blend) {
                 (SpecularMode::Filtered, 0) => "filtered-one-probe".to_owned(),
                 (SpecularMode::Filtered, k) => format!("filtered-blend-{k}"),
                 (SpecularMode::Stochastic, _) => specular_name(specular).to_owned(),
             };
+            if !parallax {
+                mode.push_str("+no-parallax");
+            }
+            let defaults = FinalOptions::default();
             let options = FinalOptions {
                 blend: if grid.is_some() {
                     DiffuseBlend::Grid
@@ -142,7 +149,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 },
                 specular,
                 glossy_blend,
-                ..FinalOptions::default()
+                diffuse: probe_trace_gpu::DiffuseOptions {
+                    parallax,
+                    ..defaults.diffuse
+                },
+                ..defaults
             };
             let (first, c) = render_and_compare(
                 &mut device,

@@ -649,6 +649,7 @@ impl Device {
             irradiance: baked.irradiance(),
             moments_resolution: settings.moments_resolution,
             moments: baked.moments(),
+            surfels: baked.surfels(),
         };
         Ok(self.tracer.upload_irradiance(&field, interpolation)?)
     }

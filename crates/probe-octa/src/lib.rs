@@ -16,6 +16,8 @@
 //! * [`distance_moments`], [`irradiance_map`], [`lobe_mean`], [`chebyshev_visibility`]: DDGI's
 //!   low-resolution filtered maps; [`glossy_pyramid`] / [`ggx_filter`]: prefiltered radiance
 //!   for glossy cone tracing (one GGX lobe per level); [`ShL2Rgb`]: L2 spherical harmonics and their irradiance;
+//! * [`surfel_map`] / [`surfel_irradiance`]: a probe's texels as surface patches, re-gathered
+//!   from another point (the near-field correction of diffuse shading, [`parallax_gain`]);
 //! * [`split_ray`]: the ≤ 4 straight octahedral segments of a world-space ray.
 //!
 //! It depends on `glam` and `thiserror` only.
@@ -96,6 +98,7 @@ mod octahedral;
 mod pyramid;
 mod ray;
 mod sh;
+mod surfel;
 
 pub use cube::{CubeFace, CubeMap, default_sharpness};
 pub use filter::{
@@ -114,3 +117,8 @@ pub use octahedral::{
 pub use pyramid::{FineRead, MinMaxPyramid, PyramidError};
 pub use ray::{OctaSegment, OctaSegments, RaySplitError, split_ray};
 pub use sh::ShL2Rgb;
+pub use surfel::{
+    MAX_COVERAGE_SCALE, MAX_PARALLAX_GAIN, MIN_COVERAGE_SCALE, MIN_SURFEL_COSINE, Surfel,
+    SurfelError, coverage_scale, parallax_gain, surfel_irradiance, surfel_irradiance_map,
+    surfel_map,
+};

@@ -244,9 +244,9 @@ pub enum DiffuseOptionsError {
     #[error("`{0}` is not key=value")]
     NotKeyValue(String),
     /// A key the options do not have. Fix: use `visibility`, `normal-bias`, `exponent`,
-    /// `min-weight` or `backface`.
+    /// `min-weight`, `backface` or `parallax`.
     #[error(
-        "unknown diffuse option `{0}` (visibility, normal-bias, exponent, min-weight, backface)"
+        "unknown diffuse option `{0}` (visibility, normal-bias, exponent, min-weight, backface, parallax)"
     )]
     UnknownKey(String),
     /// A value that does not parse. Fix: a number, or `on`/`off` for the switches.

@@ -139,14 +139,18 @@ impl DeviceFootprint {
     /// The buffers [`Tracer::upload_irradiance`](crate::Tracer::upload_irradiance) creates
     /// for `probes` probes with irradiance maps of interior resolution `irradiance_resolution`
     /// and moment maps of `moments_resolution`, interpolated by `interpolation` (`None`: a
-    /// regular grid).
+    /// regular grid), with `surfels_per_probe` surfels each
+    /// ([`IrradianceField::surfels`](crate::IrradianceField::surfels); 0 for none).
     pub fn irradiance(
         probes: usize,
         irradiance_resolution: u32,
         moments_resolution: u32,
         interpolation: Option<&Interpolation<'_>>,
+        surfels_per_probe: usize,
     ) -> DeviceFootprint {
         let p = probes as u64;
+        // With surfels, each probe's surfel irradiance map follows the irradiance maps.
+        let maps = if surfels_per_probe > 0 { 2 } else { 1 };
         let words = match interpolation {
             None | Some(Interpolation::Grid(_)) => 1,
             Some(Interpolation::Delaunay(tets)) => {
@@ -163,8 +167,18 @@ impl DeviceFootprint {
                 },
                 DeviceBuffer {
                     name: "irradiance",
-                    bytes: p * padded_len(irradiance_resolution) as u64 * 12,
+                    bytes: maps * p * padded_len(irradiance_resolution) as u64 * 12,
                     lower: "upload fewer probes or lower the irradiance resolution",
+                },
+                DeviceBuffer {
+                    name: "surfels",
+                    // One zero vec4 stands in for none.
+                    bytes: if surfels_per_probe > 0 {
+                        p * surfels_per_probe as u64 * crate::packed::SURFEL_VEC4S as u64 * 16
+                    } else {
+                        16
+                    },
+                    lower: "upload fewer probes or bake fewer surfels per probe",
                 },
                 DeviceBuffer {
                     name: "moments",
@@ -363,16 +377,27 @@ mod tests {
         let (r, m) = (6, 14);
         let irradiance = vec![Vec3::ONE; padded_len(r) * probes];
         let moments = vec![Vec2::ONE; padded_len(m) * probes];
-        let low = crate::input::IrradianceField {
-            positions: &positions,
-            irradiance_resolution: r,
-            irradiance: &irradiance,
-            moments_resolution: m,
-            moments: &moments,
-        };
-        for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
+        let surfels = vec![probe_octa::Surfel::default(); 4 * probes];
+        for (interpolation, surfels) in [
+            (Interpolation::Grid(grid), &surfels[..0]),
+            (Interpolation::Delaunay(&tets), &surfels[..]),
+        ] {
+            let low = crate::input::IrradianceField {
+                positions: &positions,
+                irradiance_resolution: r,
+                irradiance: &irradiance,
+                moments_resolution: m,
+                moments: &moments,
+                surfels,
+            };
             let packed = PackedIrradiance::new(&low, &interpolation).unwrap();
-            let footprint = DeviceFootprint::irradiance(probes, r, m, Some(&interpolation));
+            let footprint = DeviceFootprint::irradiance(
+                probes,
+                r,
+                m,
+                Some(&interpolation),
+                surfels.len() / probes,
+            );
             assert_eq!(
                 footprint
                     .buffers()
@@ -382,6 +407,7 @@ mod tests {
                 vec![
                     (packed.positions.len() * 16) as u64,
                     (packed.irradiance.len() * 4) as u64,
+                    (packed.surfels.len() * 16) as u64,
                     (packed.moments.len() * 8) as u64,
                     (packed.words.len() * 4) as u64,
                 ]

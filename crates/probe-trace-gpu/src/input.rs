@@ -91,6 +91,11 @@ pub struct IrradianceField<'a> {
     /// `(E[r], E[r²])` of radial distance per texel direction (e.g.
     /// [`probe_octa::distance_moments`]); `probes × (M+2)²` texels.
     pub moments: &'a [Vec2],
+    /// Optional: each probe's surfels ([`probe_octa::surfel_map`] of its maps, the radiance
+    /// without emission as for the irradiance), the same number per probe, probe after probe;
+    /// empty for none. With them, [`crate::DiffuseOptions::parallax`] corrects each probe's
+    /// irradiance for the point's offset from the probe.
+    pub surfels: &'a [probe_octa::Surfel],
 }
 
 /// Which probes a ray tries, in what order (the `probe-index` structures, uploaded as the flat

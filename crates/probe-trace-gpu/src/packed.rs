@@ -877,9 +877,15 @@ pub(crate) struct PackedIrradiance {
     pub positions: Vec<[f32; 4]>,
     pub irradiance_resolution: u32,
     pub moments_resolution: u32,
-    /// 3 floats per padded texel.
+    /// 3 floats per padded texel: the irradiance maps, then (with surfels) the surfels'
+    /// irradiance at each probe ([`probe_octa::surfel_irradiance_map`]), laid out as if they
+    /// were the maps of probes `probe_count ..`.
     pub irradiance: Vec<f32>,
     pub moments: Vec<[f32; 2]>,
+    /// [`SURFEL_VEC4S`] vec4 per surfel, `surfels_per_probe` per probe (one zero vec4 when
+    /// there are none).
+    pub surfels: Vec<[f32; 4]>,
+    pub surfels_per_probe: u32,
     pub kind: u32,
     pub grid: GridParams,
     /// Tetrahedra (20 words each; an open face's neighbour slot holds [`HULL_FACE`] and its
@@ -915,6 +921,13 @@ pub(crate) const MAX_HULL_FAN: u32 = 64;
 
 /// Largest irradiance or moment map resolution accepted.
 const MAX_LOW_RESOLUTION: u32 = 256;
+
+/// vec4s per packed surfel: `(position, area)`, `(normal, sky solid angle)`, `(radiance, 0)`,
+/// `(sky direction, 0)`, `(sky radiance, 0)`. WGSL mirror `SURFEL_VEC4S` in `gpu/diffuse.wgsl`.
+pub(crate) const SURFEL_VEC4S: usize = 5;
+
+/// Most surfels per probe accepted (a 64×64 surfel map).
+const MAX_SURFELS_PER_PROBE: usize = 4096;
 
 impl PackedIrradiance {
     /// Checks and packs irradiance data.
@@ -957,6 +970,42 @@ impl PackedIrradiance {
                 index,
             });
         }
+        if !field.surfels.is_empty() {
+            let per_probe = field.surfels.len() / probes;
+            if per_probe == 0 || per_probe * probes != field.surfels.len() {
+                return Err(UploadError::LengthMismatch {
+                    parameter: "surfels",
+                    expected: probes * per_probe.max(1),
+                    actual: field.surfels.len(),
+                });
+            }
+            if per_probe > MAX_SURFELS_PER_PROBE {
+                return Err(UploadError::BadParameter {
+                    parameter: "surfels per probe",
+                    value: per_probe as f32,
+                    requirement: "at most 4096 per probe (a 64×64 surfel map)",
+                });
+            }
+            let bad = field.surfels.iter().position(|s| {
+                ![
+                    s.position,
+                    s.normal,
+                    s.radiance,
+                    s.sky_direction,
+                    s.sky_radiance,
+                ]
+                .iter()
+                .all(|v| v.is_finite())
+                    || !s.area.is_finite()
+                    || !s.sky_solid_angle.is_finite()
+            });
+            if let Some(index) = bad {
+                return Err(UploadError::NonFinite {
+                    parameter: "surfels",
+                    index,
+                });
+            }
+        }
         let mut packed = PackedIrradiance {
             probe_count: probes as u32,
             positions: field
@@ -968,6 +1017,8 @@ impl PackedIrradiance {
             moments_resolution: field.moments_resolution,
             irradiance: field.irradiance.iter().flat_map(|c| c.to_array()).collect(),
             moments: field.moments.iter().map(|m| m.to_array()).collect(),
+            surfels: vec![[0.0; 4]],
+            surfels_per_probe: 0,
             kind: INTERPOLATE_GRID,
             grid: GridParams::zeroed(),
             words: Vec::new(),
@@ -979,6 +1030,9 @@ impl PackedIrradiance {
             hull: 0,
             hull_count: 0,
         };
+        if !field.surfels.is_empty() {
+            packed.pack_surfels(field)?;
+        }
         match interpolation {
             Interpolation::Grid(grid) => {
                 packed.grid = grid_params(grid, probes)?;
@@ -1094,6 +1148,46 @@ impl PackedIrradiance {
     }
 }
 
+impl PackedIrradiance {
+    /// Packs `field`'s surfels and appends each probe's surfel irradiance map (at the
+    /// irradiance maps' resolution) after the irradiance maps.
+    fn pack_surfels(&mut self, field: &IrradianceField<'_>) -> Result<(), UploadError> {
+        let probes = field.positions.len();
+        let per_probe = field.surfels.len() / probes;
+        self.surfels_per_probe = per_probe as u32;
+        self.surfels = field
+            .surfels
+            .iter()
+            .flat_map(|s| {
+                [
+                    s.position.extend(s.area).to_array(),
+                    s.normal.extend(s.sky_solid_angle).to_array(),
+                    s.radiance.extend(0.0).to_array(),
+                    s.sky_direction.extend(0.0).to_array(),
+                    s.sky_radiance.extend(0.0).to_array(),
+                ]
+            })
+            .collect();
+        for (p, position) in field.positions.iter().enumerate() {
+            let map = probe_octa::surfel_irradiance_map(
+                &field.surfels[p * per_probe..(p + 1) * per_probe],
+                *position,
+                field.irradiance_resolution,
+            )
+            .map_err(|_| UploadError::Resolution {
+                parameter: "irradiance_resolution",
+                value: field.irradiance_resolution,
+                min: 1,
+                max: MAX_LOW_RESOLUTION,
+            })?;
+            self.irradiance
+                .extend(map.texels().iter().flat_map(|c| c.to_array()));
+        }
+        check_addressable("irradiance", self.irradiance.len() as u64, 4)?;
+        Ok(())
+    }
+}
+
 /// The trace pass's uniform block (304 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -1140,7 +1234,7 @@ pub(crate) struct TraceParams {
     pub glossy_offsets: [[u32; 4]; 2],
 }
 
-/// The diffuse pass's uniform block (112 bytes). WGSL mirror `DiffuseParams` in
+/// The diffuse pass's uniform block (128 bytes). WGSL mirror `DiffuseParams` in
 /// `gpu/diffuse.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
@@ -1168,6 +1262,11 @@ pub(crate) struct DiffuseParams {
     /// Most moves of the descent over the hull before it falls back to the scan of every hull
     /// triangle (0: always scan).
     pub max_hull_steps: u32,
+    /// Whether each probe's irradiance is corrected by its surfels
+    /// (`DiffuseOptions::parallax`, and surfels uploaded).
+    pub parallax: u32,
+    pub surfels_per_probe: u32,
+    pub pad: [u32; 2],
 }
 
 /// Method codes shared with the WGSL.
@@ -1456,6 +1555,9 @@ pub(crate) fn diffuse_params(
         // A descent crosses the hull at most once; the cap only guards against cycling where
         // f32 rounding breaks the strict decrease (then the scan answers).
         max_hull_steps: MAX_HULL_STEPS,
+        parallax: u32::from(options.parallax && irradiance.surfels_per_probe > 0),
+        surfels_per_probe: irradiance.surfels_per_probe,
+        pad: [0; 2],
     })
 }
 

@@ -119,6 +119,7 @@ fn fields_over_the_device_limits_are_refused_naming_the_buffer() {
         irradiance: &irradiance,
         moments_resolution: 14,
         moments: &moments,
+        surfels: &[],
     };
     let error = tracer
         .upload_irradiance(&low, &probe_trace_gpu::Interpolation::Grid(grid))

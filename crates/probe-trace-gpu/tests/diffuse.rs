@@ -41,6 +41,7 @@ fn interpolation_reproduces_linear_fields() {
         irradiance: &irradiance,
         moments_resolution: 14,
         moments: &moments,
+        surfels: &[],
     };
     let tets = Tetrahedralization::build(&positions).unwrap();
     let mut tracer = CpuTracer::new();
@@ -88,6 +89,7 @@ fn reference_irradiance(
     shade: &(dyn Fn(&probe_scene::Hit, Vec3) -> Vec3 + Sync),
     x: Vec3,
     n: Vec3,
+    sky: Vec3,
 ) -> Vec3 {
     let t = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
     let u = n.cross(t).normalize();
@@ -100,8 +102,9 @@ fn reference_irradiance(
             let r = a.sqrt();
             let phi = std::f32::consts::TAU * b;
             let d = u * (r * phi.cos()) + v * (r * phi.sin()) + n * (1.0 - a).sqrt();
-            if let Some(hit) = scene.closest_hit(&Ray::from_surface(x, n, d), f32::INFINITY) {
-                sum += shade(&hit, d);
+            match scene.closest_hit(&Ray::from_surface(x, n, d), f32::INFINITY) {
+                Some(hit) => sum += shade(&hit, d),
+                None => sum += sky,
             }
         }
     }
@@ -168,7 +171,13 @@ fn leak_figures(scene_name: &str) -> LeakFigures {
         points
             .iter()
             .map(|p| {
-                reference_irradiance(&scene, &shade, Vec3::from(p.position), Vec3::from(p.normal))
+                reference_irradiance(
+                    &scene,
+                    &shade,
+                    Vec3::from(p.position),
+                    Vec3::from(p.normal),
+                    support::SKY,
+                )
             })
             .collect()
     };
@@ -239,6 +248,7 @@ fn diffuse_errors_name_the_problem() {
         irradiance: &irradiance,
         moments_resolution: 14,
         moments: &moments,
+        surfels: &[],
     };
     let tets = Tetrahedralization::build(&positions).unwrap();
     let uploaded = tracer
@@ -312,4 +322,95 @@ fn diffuse_errors_name_the_problem() {
         .upload_irradiance(&short, &Interpolation::Delaunay(&tets))
         .unwrap_err();
     assert!(error.to_string().contains("`irradiance`"), "{error}");
+    // Surfels: the same number per probe, finite.
+    let mut surfels = vec![probe_octa::Surfel::default(); 4 * 3];
+    let uneven = IrradianceField {
+        surfels: &surfels[1..],
+        ..field
+    };
+    let error = tracer
+        .upload_irradiance(&uneven, &Interpolation::Delaunay(&tets))
+        .unwrap_err();
+    assert!(error.to_string().contains("`surfels`"), "{error}");
+    surfels[5].area = f32::NAN;
+    let nan = IrradianceField {
+        surfels: &surfels,
+        ..field
+    };
+    let error = tracer
+        .upload_irradiance(&nan, &Interpolation::Delaunay(&tets))
+        .unwrap_err();
+    assert!(error.to_string().contains("`surfels[5]`"), "{error}");
+}
+
+/// The surfels' near-field correction (`DiffuseOptions::parallax`) on the Cornell box with
+/// a 3×3×3 grid: against the BVH's irradiance at the surfaces the camera sees, the squared
+/// error falls at least 20 % below the plain blend's (0.70× when written: the walls beside
+/// each point, the corners; the sky through the open front), for both interpolations. The
+/// radiance is the reflected light alone (no emission), as in a
+/// bake's irradiance maps and surfels: the light source is direct light, shaded apart.
+#[test]
+fn parallax_brings_the_near_field() {
+    let scene = Scene::open("builtin:cornell").unwrap();
+    let direct = direct_light_shade(&scene);
+    let shade = |hit: &probe_scene::Hit, d: Vec3| {
+        direct(hit, d) - scene.materials()[hit.material as usize].emissive
+    };
+    let bounds = scene.bounds();
+    let size = bounds.size();
+    let grid = ProbeGrid::new(bounds.min + size / 6.0, size / 3.0, [3, 3, 3]).unwrap();
+    let positions = grid.positions();
+    let bake = mini_capture(&scene, &positions, 32, 100.0, &shade);
+    let low = LowRes::of(&bake);
+    let tets = Tetrahedralization::build(&positions).unwrap();
+    let points: Vec<ShadingPoint> = support::camera_rays(&scene, 24, 24)
+        .iter()
+        .filter_map(|ray| scene.closest_hit(ray, f32::INFINITY))
+        .map(|hit| {
+            let n = if hit
+                .geometric_normal
+                .dot(scene.default_camera().position - hit.position)
+                >= 0.0
+            {
+                hit.geometric_normal
+            } else {
+                -hit.geometric_normal
+            };
+            ShadingPoint::new(hit.position, n)
+        })
+        .collect();
+    let truth: Vec<Vec3> = points
+        .iter()
+        .map(|p| {
+            let (x, n) = (Vec3::from(p.position), Vec3::from(p.normal));
+            reference_irradiance(&scene, &shade, x, n, support::SKY)
+        })
+        .collect();
+    let mut tracer = CpuTracer::new();
+    for interpolation in [Interpolation::Grid(grid), Interpolation::Delaunay(&tets)] {
+        let irradiance = tracer
+            .upload_irradiance(&low.field(), &interpolation)
+            .unwrap();
+        let mut error = |parallax: bool| -> f32 {
+            let options = DiffuseOptions {
+                parallax,
+                ..DiffuseOptions::default()
+            };
+            let out = tracer
+                .shade_diffuse(&irradiance, &points, &options)
+                .unwrap();
+            out.results
+                .iter()
+                .zip(&truth)
+                .map(|(r, t)| (r.irradiance - *t).length_squared())
+                .sum::<f32>()
+                / points.len() as f32
+        };
+        let (plain, parallax) = (error(false), error(true));
+        eprintln!(
+            "{points} points, mean squared error: plain {plain:.4e}, parallax {parallax:.4e}",
+            points = points.len()
+        );
+        assert!(parallax < 0.8 * plain, "plain {plain}, parallax {parallax}");
+    }
 }

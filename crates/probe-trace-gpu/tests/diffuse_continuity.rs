@@ -100,6 +100,7 @@ fn blend_is_continuous(
         irradiance: &irradiance,
         moments_resolution: MOMENTS_RESOLUTION,
         moments: &moments,
+        surfels: &[],
     };
     let options = DiffuseOptions {
         visibility,

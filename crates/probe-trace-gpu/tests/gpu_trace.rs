@@ -263,7 +263,7 @@ fn gpu_diffuse_matches_cpu() {
 }
 
 /// The GPU and the CPU twin shade `points` alike (999 in 1000 within 1e-3 relative) for each
-/// interpolation and a few option sets.
+/// interpolation and a few option sets, with and without the surfels' near-field correction.
 fn compare_diffuse(
     gpu: &mut GpuTracer,
     cpu: &mut CpuTracer,
@@ -274,16 +274,19 @@ fn compare_diffuse(
     for interpolation in interpolations {
         let gpu_irradiance = gpu.upload_irradiance(&low.field(), interpolation).unwrap();
         let cpu_irradiance = cpu.upload_irradiance(&low.field(), interpolation).unwrap();
-        for (visibility, exponent, backface) in [
-            (false, 3.0, false),
-            (false, 3.0, true),
-            (true, 3.0, true),
-            (true, 1.5, false),
+        for (visibility, exponent, backface, parallax) in [
+            (false, 3.0, false, false),
+            (false, 3.0, true, false),
+            (true, 3.0, true, false),
+            (true, 1.5, false, false),
+            (true, 5.0, true, true),
+            (false, 3.0, false, true),
         ] {
             let options = DiffuseOptions {
                 visibility,
                 visibility_exponent: exponent,
                 backface,
+                parallax,
                 ..DiffuseOptions::default()
             };
             let g = gpu
@@ -302,7 +305,8 @@ fn compare_diffuse(
                 .count();
             assert!(
                 close as f64 >= 0.999 * points.len() as f64,
-                "visibility {visibility}, exponent {exponent}, backface {backface}: {close}"
+                "visibility {visibility}, exponent {exponent}, backface {backface}, \
+                 parallax {parallax}: {close}"
             );
         }
     }

@@ -42,6 +42,10 @@ pub struct Args {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Surfels per side of each probe (a power of two; 0 for none), from which diffuse
+    /// shading re-gathers the light at each point (`render --diffuse-options parallax`).
+    #[arg(long, default_value_t = BakeSettings::default().surfel_resolution)]
+    pub surfels: u32,
     /// The sun.
     #[command(flatten)]
     pub sun: SunArgs,
@@ -77,6 +81,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         bounces: args.bounces,
         seed: args.seed,
         environment: args.sun.environment(&scene)?,
+        surfel_resolution: args.surfels,
         ..BakeSettings::default()
     };
     let progress = bar(0, "baking");

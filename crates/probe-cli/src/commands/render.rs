@@ -128,7 +128,8 @@ pub struct Args {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Diffuse shading options of `diffuse` and of `final`'s diffuse part, as `key=value,...`
-    /// (`visibility`, `normal-bias`, `exponent`, `min-weight`, `backface`; see
+    /// (`visibility`, `normal-bias`, `exponent`, `min-weight`, `backface`, `parallax`: `off`
+    /// skips re-gathering each probe's light at the point from the bake's surfels; see
     /// `probe_trace_gpu::DiffuseOptions`); unnamed keys keep their defaults.
     #[arg(long, default_value = "")]
     pub diffuse_options: DiffuseOptions,

@@ -6,7 +6,7 @@ use probe_index::TetRecord;
 
 use crate::packed::{
     DiffuseParams, HULL_FACE, HULL_WORDS, INTERPOLATE_GRID, MAX_HULL_FAN, PackedIrradiance,
-    TET_WORDS, padded_index,
+    SURFEL_VEC4S, TET_WORDS, padded_index,
 };
 use crate::ray::{DiffuseResult, ShadingPoint};
 
@@ -343,6 +343,48 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
     (probes, w)
 }
 
+/// `probe_octa::surfel_irradiance` of `probe`'s packed surfels at `x`, step for step as
+/// `gpu/diffuse.wgsl` computes it.
+fn surfel_irradiance(
+    ir: &PackedIrradiance,
+    params: &DiffuseParams,
+    probe: u32,
+    x: Vec3,
+    n: Vec3,
+) -> Vec3 {
+    let first = probe as usize * params.surfels_per_probe as usize;
+    let mut sum = Vec3::ZERO;
+    let mut coverage = 0.0f32;
+    for s in 0..params.surfels_per_probe as usize {
+        let at = (first + s) * SURFEL_VEC4S;
+        let [px, py, pz, area] = ir.surfels[at];
+        let [nx, ny, nz, sky] = ir.surfels[at + 1];
+        if area > 0.0 {
+            let v = Vec3::new(px, py, pz) - x;
+            let r2 = v.dot(v);
+            if r2 > 0.0 {
+                let w = v / r2.sqrt();
+                let cx = n.dot(w);
+                let cs = -Vec3::new(nx, ny, nz).dot(w);
+                if cx > 0.0 && cs > 0.0 {
+                    let c = area * cx * cs / (r2 + area * std::f32::consts::FRAC_1_PI);
+                    let [r, g, b, _] = ir.surfels[at + 2];
+                    sum += Vec3::new(r, g, b) * c;
+                    coverage += c;
+                }
+            }
+        }
+        if sky > 0.0 {
+            let [dx, dy, dz, _] = ir.surfels[at + 3];
+            let [r, g, b, _] = ir.surfels[at + 4];
+            let c = sky * n.dot(Vec3::new(dx, dy, dz)).max(0.0);
+            sum += Vec3::new(r, g, b) * c;
+            coverage += c;
+        }
+    }
+    sum * probe_octa::coverage_scale(coverage)
+}
+
 /// Shades one point.
 pub(super) fn shade(
     ir: &PackedIrradiance,
@@ -380,12 +422,23 @@ pub(super) fn shade(
             let visibility = probe_octa::chebyshev_visibility(Vec2::from(m), distance);
             weight *= sharpen(visibility, params.visibility_exponent).max(params.min_weight);
         }
-        let e = Vec3::from(sample_bilinear(
+        let mut e = Vec3::from(sample_bilinear(
             irradiance,
             params.irradiance_resolution,
             probe,
             n,
         ));
+        if params.parallax != 0 {
+            // The surfels' irradiance at the probe is stored as the map of probe
+            // `probe_count + probe`.
+            let at_probe = Vec3::from(sample_bilinear(
+                irradiance,
+                params.irradiance_resolution,
+                params.probe_count + probe,
+                n,
+            ));
+            e *= probe_octa::parallax_gain(surfel_irradiance(ir, params, probe, x, n), at_probe);
+        }
         sum += e * weight;
         weight_sum += weight;
     }
@@ -451,6 +504,7 @@ mod tests {
             irradiance: &irradiance,
             moments_resolution: 1,
             moments: &moments,
+            surfels: &[],
         };
         let ir =
             PackedIrradiance::new(&field, &crate::input::Interpolation::Delaunay(tets)).unwrap();

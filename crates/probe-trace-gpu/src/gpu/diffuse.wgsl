@@ -8,7 +8,16 @@ const HULL_WORDS: u32 = 20u;
 const HULL_FACE: u32 = 0x80000000u;
 const MAX_HULL_FAN: u32 = 64u;
 
-// src/packed.rs DiffuseParams (112 bytes).
+// src/packed.rs SURFEL_VEC4S.
+const SURFEL_VEC4S: u32 = 5u;
+// probe-octa's MIN_COVERAGE_SCALE, MAX_COVERAGE_SCALE and MAX_PARALLAX_GAIN.
+const MIN_COVERAGE_SCALE: f32 = 0.5;
+const MAX_COVERAGE_SCALE: f32 = 4.0;
+const MAX_PARALLAX_GAIN: f32 = 16.0;
+const FRAC_1_PI: f32 = 0.31830987;
+const PI: f32 = 3.1415927;
+
+// src/packed.rs DiffuseParams (128 bytes).
 struct DiffuseParams {
     point_count: u32,
     threads_per_row: u32,
@@ -31,6 +40,10 @@ struct DiffuseParams {
     min_weight: f32,
     backface: u32,
     max_hull_steps: u32,
+    parallax: u32,
+    surfels_per_probe: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 // src/ray.rs ShadingPoint (32 bytes).
@@ -51,6 +64,9 @@ struct ShadingPoint {
 @group(0) @binding(5) var<storage, read> moments: array<vec2<f32>>;
 // Tetrahedra, a tetrahedron per probe, k-d tree nodes, convex-hull triangles.
 @group(0) @binding(6) var<storage, read> words: array<u32>;
+// Surfels: (position, area), (normal, sky solid angle), (radiance, 0), (sky direction, 0),
+// (sky radiance, 0).
+@group(0) @binding(7) var<storage, read> surfels: array<vec4<f32>>;
 
 // Bilinear taps of a padded octahedral map (probe_octa::OctaMap::sample): the index of the
 // top-left tap and the weights along x and y.
@@ -443,6 +459,46 @@ fn interpolation_weights(x: vec3<f32>) -> Weights {
     return out;
 }
 
+// probe_octa::surfel_irradiance of a probe's surfels at x (src/cpu/diffuse.rs).
+fn surfel_irradiance(probe: u32, x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let first = probe * params.surfels_per_probe;
+    var sum = vec3<f32>(0.0);
+    var coverage = 0.0;
+    for (var s = 0u; s < params.surfels_per_probe; s++) {
+        let at = (first + s) * SURFEL_VEC4S;
+        let a = surfels[at];
+        let b = surfels[at + 1u];
+        let area = a.w;
+        if (area > 0.0) {
+            let v = a.xyz - x;
+            let r2 = dot(v, v);
+            if (r2 > 0.0) {
+                let w = v / sqrt(r2);
+                let cx = dot(n, w);
+                let cs = -dot(b.xyz, w);
+                if (cx > 0.0 && cs > 0.0) {
+                    let c = area * cx * cs / (r2 + area * FRAC_1_PI);
+                    sum += surfels[at + 2u].xyz * c;
+                    coverage += c;
+                }
+            }
+        }
+        let sky = b.w;
+        if (sky > 0.0) {
+            let c = sky * max(dot(n, surfels[at + 3u].xyz), 0.0);
+            sum += surfels[at + 4u].xyz * c;
+            coverage += c;
+        }
+    }
+    return sum * clamp(PI / max(coverage, 1e-6), MIN_COVERAGE_SCALE, MAX_COVERAGE_SCALE);
+}
+
+// probe_octa::parallax_gain.
+fn parallax_gain(at_point: vec3<f32>, at_probe: vec3<f32>) -> vec3<f32> {
+    let eps = 0.05 * (at_probe.x + at_probe.y + at_probe.z) / 3.0 + 1e-12;
+    return min((at_point + vec3<f32>(eps)) / (at_probe + vec3<f32>(eps)), vec3<f32>(MAX_PARALLAX_GAIN));
+}
+
 fn shade(point: ShadingPoint) -> vec4<f32> {
     let x = point.position;
     let n = point.normal;
@@ -477,7 +533,14 @@ fn shade(point: ShadingPoint) -> vec4<f32> {
             let visibility = chebyshev(sample_moments(probe, direction), distance);
             weight *= max(sharpen(visibility, params.visibility_exponent), params.min_weight);
         }
-        sum += sample_irradiance(probe, n) * weight;
+        var e = sample_irradiance(probe, n);
+        if (params.parallax != 0u) {
+            // The surfels' irradiance at the probe is stored as the map of probe
+            // probe_count + probe.
+            let at_probe = sample_irradiance(params.probe_count + probe, n);
+            e *= parallax_gain(surfel_irradiance(probe, x, n), at_probe);
+        }
+        sum += e * weight;
         weight_sum += weight;
     }
     if (weight_sum > 0.0) {

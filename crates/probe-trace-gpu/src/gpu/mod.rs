@@ -79,14 +79,15 @@ pub fn trace_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 8] {
 ///
 /// | binding | type | holds |
 /// |---|---|---|
-/// | 0 | uniform | the diffuse parameters (`DiffuseParams` in the WGSL, 112 B); written by [`GpuTracer::bind_diffuse`] |
+/// | 0 | uniform | the diffuse parameters (`DiffuseParams` in the WGSL, 128 B); written by [`GpuTracer::bind_diffuse`] |
 /// | 1 | storage, read | the shading points, [`ShadingPoint`] (32 B each) |
 /// | 2 | storage, read-write | the results, `vec4<f32>` per point: irradiance RGB, then the weight sum ([`DiffuseResult`]) |
 /// | 3 | storage, read | probe centres, `vec4<f32>` per probe |
 /// | 4 | storage, read | irradiance, 3 × f32 per padded texel |
 /// | 5 | storage, read | distance moments, `vec2<f32>` per padded texel |
 /// | 6 | storage, read | the interpolation's words (grid cage or tetrahedra and k-d tree) |
-pub fn diffuse_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 7] {
+/// | 7 | storage, read | surfels, 5 × `vec4<f32>` each (one zero `vec4` when none were uploaded) |
+pub fn diffuse_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 8] {
     [
         uniform_entry(0),
         storage_entry(1, true),
@@ -95,6 +96,7 @@ pub fn diffuse_bind_group_layout_entries() -> [wgpu::BindGroupLayoutEntry; 7] {
         storage_entry(4, true),
         storage_entry(5, true),
         storage_entry(6, true),
+        storage_entry(7, true),
     ]
 }
 
@@ -276,6 +278,7 @@ pub struct GpuIrradiance {
     irradiance: wgpu::Buffer,
     moments: wgpu::Buffer,
     words: wgpu::Buffer,
+    surfels: wgpu::Buffer,
 }
 
 impl std::fmt::Debug for GpuIrradiance {
@@ -929,6 +932,7 @@ impl GpuTracer {
                     irradiance.irradiance.as_entire_buffer_binding(),
                     irradiance.moments.as_entire_buffer_binding(),
                     irradiance.words.as_entire_buffer_binding(),
+                    irradiance.surfels.as_entire_buffer_binding(),
                 ],
             ),
         })
@@ -1089,6 +1093,7 @@ impl Tracer for GpuTracer {
             field.irradiance_resolution.min(1 << 16),
             field.moments_resolution.min(1 << 16),
             Some(interpolation),
+            field.surfels.len() / field.positions.len().max(1),
         )
         .check(&self.limits)?;
         let mut meta = PackedIrradiance::new(field, interpolation)?;
@@ -1098,9 +1103,11 @@ impl Tracer for GpuTracer {
         )?;
         let irradiance =
             self.storage_buffer("irradiance", bytemuck::cast_slice(&meta.irradiance))?;
+        let surfels = self.storage_buffer("surfels", bytemuck::cast_slice(&meta.surfels))?;
         let moments = self.storage_buffer("moments", bytemuck::cast_slice(&meta.moments))?;
         let words = self.storage_buffer("interpolation", bytemuck::cast_slice(&meta.words))?;
         meta.irradiance = Vec::new();
+        meta.surfels = Vec::new();
         meta.moments = Vec::new();
         meta.words = Vec::new();
         Ok(GpuIrradiance {
@@ -1110,6 +1117,7 @@ impl Tracer for GpuTracer {
             irradiance,
             moments,
             words,
+            surfels,
         })
     }
 

@@ -67,6 +67,15 @@ impl Bake {
         .unwrap()
     }
 
+    pub fn normal_map(&self, probe: usize) -> OctaMap<Vec3> {
+        let len = OctaLayout::new(self.resolution).unwrap().padded_len();
+        OctaMap::from_padded(
+            self.resolution,
+            self.normals[probe * len..(probe + 1) * len].to_vec(),
+        )
+        .unwrap()
+    }
+
     pub fn radiance_map(&self, probe: usize) -> OctaMap<Vec3> {
         let len = OctaLayout::new(self.resolution).unwrap().padded_len();
         OctaMap::from_padded(
@@ -325,16 +334,18 @@ pub fn direct_light_shade(scene: &Scene) -> impl Fn(&Hit, Vec3) -> Vec3 + Sync +
     }
 }
 
-/// Irradiance and distance-moment maps of a bake (DDGI sizes: 6² and 14²).
+/// Irradiance and distance-moment maps of a bake (DDGI sizes: 6² and 14²), and its surfels
+/// (8² per probe).
 pub struct LowRes {
     pub positions: Vec<Vec3>,
     pub irradiance: Vec<Vec3>,
     pub moments: Vec<Vec2>,
+    pub surfels: Vec<probe_octa::Surfel>,
 }
 
 impl LowRes {
     pub fn of(bake: &Bake) -> LowRes {
-        let parts: Vec<(Vec<Vec3>, Vec<Vec2>)> = (0..bake.positions.len())
+        let parts: Vec<(Vec<Vec3>, Vec<Vec2>, Vec<probe_octa::Surfel>)> = (0..bake.positions.len())
             .into_par_iter()
             .map(|p| {
                 let radiance = bake.radiance_map(p);
@@ -343,17 +354,28 @@ impl LowRes {
                 let m =
                     probe_octa::distance_moments(&distance, 14, probe_octa::default_sharpness(14))
                         .unwrap();
-                (e.texels().to_vec(), m.texels().to_vec())
+                let surfels = probe_octa::surfel_map(
+                    bake.positions[p],
+                    &distance,
+                    &bake.normal_map(p),
+                    &radiance,
+                    bake.sky_distance,
+                    8.min(bake.resolution),
+                )
+                .unwrap();
+                (e.texels().to_vec(), m.texels().to_vec(), surfels)
             })
             .collect();
         let mut out = LowRes {
             positions: bake.positions.clone(),
             irradiance: Vec::new(),
             moments: Vec::new(),
+            surfels: Vec::new(),
         };
-        for (e, m) in parts {
+        for (e, m, s) in parts {
             out.irradiance.extend(e);
             out.moments.extend(m);
+            out.surfels.extend(s);
         }
         out
     }
@@ -365,6 +387,7 @@ impl LowRes {
             irradiance: &self.irradiance,
             moments_resolution: 14,
             moments: &self.moments,
+            surfels: &self.surfels,
         }
     }
 }
