@@ -72,7 +72,7 @@ pub struct BakeSettings {
     /// to 1024, or 0 for none; a bake of lower `resolution` makes one surfel per texel
     /// ([`Self::surfels_per_side`]). Default 8 (64 surfels, 4 KiB per probe): chosen by
     /// measurement against the shading cost (BENCHMARKS.md, "Near-field diffuse"; 16 lowers
-    /// the Cornell box's diffuse error a further 1.8× at 2.5× the shading time).
+    /// the Cornell box's diffuse error a further 1.8× at 2.1–2.5× the shading time).
     pub surfel_resolution: u32,
 }
 

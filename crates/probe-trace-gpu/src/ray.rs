@@ -435,10 +435,10 @@ pub struct DiffuseOptions {
     /// cannot hold (the light of a wall beside the point, the darkening into corners) but
     /// ignores occlusion between the point and the surfaces a probe saw. Costs a pass over
     /// every surfel of each blended probe. Default true, chosen by measurement (BENCHMARKS.md,
-    /// "Near-field diffuse"): the final image's error falls 2.8–4.5× on the Cornell box and
-    /// 1.1–1.3× on Sponza, the leak rooms' diffuse error 1.3–2×, and FLIP falls on every scene
-    /// measured; the Breakfast room's MSE rises 8–36 % (furniture hides from the wall surfaces
-    /// a probe in the room's middle sees).
+    /// "Near-field diffuse"): with the bake's default 8² surfels the final image's error falls
+    /// 2.0–2.9× on the Cornell box and 1.08–1.27× on Sponza, the leak rooms' diffuse error
+    /// 1.2–1.6×, and FLIP falls on every scene measured; the Breakfast room's MSE rises 13–30 %
+    /// (furniture hides from the walls surfaces that a probe in the room's middle sees).
     pub parallax: bool,
 }
 

@@ -59,28 +59,22 @@ impl Bake {
 
     /// The padded maps of one probe.
     pub fn distance_map(&self, probe: usize) -> OctaMap<f32> {
-        let len = OctaLayout::new(self.resolution).unwrap().padded_len();
-        OctaMap::from_padded(
-            self.resolution,
-            self.distance[probe * len..(probe + 1) * len].to_vec(),
-        )
-        .unwrap()
+        self.probe_map(&self.distance, probe)
     }
 
     pub fn normal_map(&self, probe: usize) -> OctaMap<Vec3> {
-        let len = OctaLayout::new(self.resolution).unwrap().padded_len();
-        OctaMap::from_padded(
-            self.resolution,
-            self.normals[probe * len..(probe + 1) * len].to_vec(),
-        )
-        .unwrap()
+        self.probe_map(&self.normals, probe)
     }
 
     pub fn radiance_map(&self, probe: usize) -> OctaMap<Vec3> {
+        self.probe_map(&self.radiance, probe)
+    }
+
+    fn probe_map<T: probe_octa::Texel>(&self, texels: &[T], probe: usize) -> OctaMap<T> {
         let len = OctaLayout::new(self.resolution).unwrap().padded_len();
         OctaMap::from_padded(
             self.resolution,
-            self.radiance[probe * len..(probe + 1) * len].to_vec(),
+            texels[probe * len..(probe + 1) * len].to_vec(),
         )
         .unwrap()
     }
