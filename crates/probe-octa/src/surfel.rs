@@ -11,6 +11,8 @@
 //! diffuse probe shading: the probe's own irradiance map stays the answer at the probe, and
 //! the surfels say how much brighter or darker a point nearby is.
 
+use std::borrow::Borrow;
+
 use glam::Vec3;
 
 use crate::layout::{OctaLayout, ResolutionError};
@@ -181,10 +183,18 @@ pub fn surfel_map(
 /// filled with the mean radiance of what they cover; where they cover more, surfaces hidden
 /// from `x` behind others are counted with them (nothing is occluded here: a surface the probe
 /// saw counts even where something between hides it from `x`), and the overlap is averaged.
-pub fn surfel_irradiance(surfels: &[Surfel], x: Vec3, n: Vec3) -> Vec3 {
+///
+/// `surfels` is any sequence of surfels or references to them (a slice, or surfels unpacked
+/// on the fly from a GPU buffer's layout).
+pub fn surfel_irradiance(
+    surfels: impl IntoIterator<Item = impl Borrow<Surfel>>,
+    x: Vec3,
+    n: Vec3,
+) -> Vec3 {
     let mut sum = Vec3::ZERO;
     let mut coverage = 0.0f32;
     for s in surfels {
+        let s = s.borrow();
         if s.area > 0.0 {
             let v = s.position - x;
             let r2 = v.length_squared();

@@ -926,6 +926,31 @@ const MAX_LOW_RESOLUTION: u32 = 256;
 /// `(sky direction, 0)`, `(sky radiance, 0)`. WGSL mirror `SURFEL_VEC4S` in `gpu/diffuse.wgsl`.
 pub(crate) const SURFEL_VEC4S: usize = 5;
 
+/// A surfel in [`SURFEL_VEC4S`] vec4s, as `gpu/diffuse.wgsl` reads it.
+fn pack_surfel(s: &probe_octa::Surfel) -> [[f32; 4]; SURFEL_VEC4S] {
+    [
+        s.position.extend(s.area).to_array(),
+        s.normal.extend(s.sky_solid_angle).to_array(),
+        s.radiance.extend(0.0).to_array(),
+        s.sky_direction.extend(0.0).to_array(),
+        s.sky_radiance.extend(0.0).to_array(),
+    ]
+}
+
+/// The surfel [`pack_surfel`] packed into `v` (`SURFEL_VEC4S` vec4s).
+pub(crate) fn unpack_surfel(v: &[[f32; 4]]) -> probe_octa::Surfel {
+    let xyz = |k: usize| Vec3::from_slice(&v[k][..3]);
+    probe_octa::Surfel {
+        position: xyz(0),
+        area: v[0][3],
+        normal: xyz(1),
+        sky_solid_angle: v[1][3],
+        radiance: xyz(2),
+        sky_direction: xyz(3),
+        sky_radiance: xyz(4),
+    }
+}
+
 /// Most surfels per probe accepted (a 64×64 surfel map).
 const MAX_SURFELS_PER_PROBE: usize = 4096;
 
@@ -1155,19 +1180,7 @@ impl PackedIrradiance {
         let probes = field.positions.len();
         let per_probe = field.surfels.len() / probes;
         self.surfels_per_probe = per_probe as u32;
-        self.surfels = field
-            .surfels
-            .iter()
-            .flat_map(|s| {
-                [
-                    s.position.extend(s.area).to_array(),
-                    s.normal.extend(s.sky_solid_angle).to_array(),
-                    s.radiance.extend(0.0).to_array(),
-                    s.sky_direction.extend(0.0).to_array(),
-                    s.sky_radiance.extend(0.0).to_array(),
-                ]
-            })
-            .collect();
+        self.surfels = field.surfels.iter().flat_map(pack_surfel).collect();
         for (p, position) in field.positions.iter().enumerate() {
             let map = probe_octa::surfel_irradiance_map(
                 &field.surfels[p * per_probe..(p + 1) * per_probe],

@@ -6,7 +6,7 @@ use probe_index::TetRecord;
 
 use crate::packed::{
     DiffuseParams, HULL_FACE, HULL_WORDS, INTERPOLATE_GRID, MAX_HULL_FAN, PackedIrradiance,
-    SURFEL_VEC4S, TET_WORDS, padded_index,
+    SURFEL_VEC4S, TET_WORDS, padded_index, unpack_surfel,
 };
 use crate::ray::{DiffuseResult, ShadingPoint};
 
@@ -343,8 +343,8 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
     (probes, w)
 }
 
-/// `probe_octa::surfel_irradiance` of `probe`'s packed surfels at `x`, step for step as
-/// `gpu/diffuse.wgsl` computes it.
+/// `probe_octa::surfel_irradiance` of `probe`'s packed surfels at `x` (the sum
+/// `gpu/diffuse.wgsl` computes in the same order).
 fn surfel_irradiance(
     ir: &PackedIrradiance,
     params: &DiffuseParams,
@@ -352,37 +352,10 @@ fn surfel_irradiance(
     x: Vec3,
     n: Vec3,
 ) -> Vec3 {
-    let first = probe as usize * params.surfels_per_probe as usize;
-    let mut sum = Vec3::ZERO;
-    let mut coverage = 0.0f32;
-    for s in 0..params.surfels_per_probe as usize {
-        let at = (first + s) * SURFEL_VEC4S;
-        let [px, py, pz, area] = ir.surfels[at];
-        let [nx, ny, nz, sky] = ir.surfels[at + 1];
-        if area > 0.0 {
-            let v = Vec3::new(px, py, pz) - x;
-            let r2 = v.dot(v);
-            if r2 > 0.0 {
-                let w = v / r2.sqrt();
-                let cx = n.dot(w);
-                let cs = -Vec3::new(nx, ny, nz).dot(w);
-                if cx > 0.0 && cs > 0.0 {
-                    let c = area * cx * cs / (r2 + area * std::f32::consts::FRAC_1_PI);
-                    let [r, g, b, _] = ir.surfels[at + 2];
-                    sum += Vec3::new(r, g, b) * c;
-                    coverage += c;
-                }
-            }
-        }
-        if sky > 0.0 {
-            let [dx, dy, dz, _] = ir.surfels[at + 3];
-            let [r, g, b, _] = ir.surfels[at + 4];
-            let c = sky * n.dot(Vec3::new(dx, dy, dz)).max(0.0);
-            sum += Vec3::new(r, g, b) * c;
-            coverage += c;
-        }
-    }
-    sum * probe_octa::coverage_scale(coverage)
+    let count = params.surfels_per_probe as usize * SURFEL_VEC4S;
+    let first = probe as usize * count;
+    let packed = &ir.surfels[first..first + count];
+    probe_octa::surfel_irradiance(packed.chunks_exact(SURFEL_VEC4S).map(unpack_surfel), x, n)
 }
 
 /// Shades one point.
