@@ -22,7 +22,11 @@
 //!   with the lobe's albedo (`probe_eval::glossy`).
 //!
 //! Trace times of the filtered and stochastic images are the median of 3 calls after a warm-up
-//! call (GPU timestamps when the device has them, else wall time); the 64-rpp trace runs once. Prints a Markdown table and writes `OUT/NAME.png`: per roughness
+//! call (GPU timestamps when the device has them, else wall time); the 64-rpp trace runs once.
+//! The blended filtered image's error is then split by what each pixel's centre ray answered
+//! against the BVH's closest hit (`probe_eval::metrics::classify_pixels`: correct hit, right
+//! surface with wrong radiance, wrong hit, UNKNOWN, ...), against the reference and against the
+//! probes' 64-ray image. Prints a Markdown table and writes `OUT/NAME.png`: per roughness
 //! a row filtered 1 rpp by one probe | filtered 1 rpp blended | stochastic 16 rpp | reference, at
 //! the reference's exposure.
 
@@ -31,18 +35,18 @@ use std::time::Instant;
 
 use glam::Vec3;
 use probe_capture::{
-    EvaluationRay, Image, Reflection, Sampling, accumulate_rays, find_camera, reflection_rays,
-    render_gbuffer,
+    EvaluationRay, Image, ReferenceSample, Reflection, Sampling, accumulate_rays, find_camera,
+    reflection_rays, render_gbuffer,
 };
 use probe_eval::glossy::filtered_reflection_rays;
-use probe_eval::metrics::{flip, tonemapped_mse};
+use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
 use probe_eval::pipeline::{
     Device, EvalView, Selection, ViewSettings, bake_for_view, build_index, light_field,
 };
 use probe_index::ProbeGrid;
 use probe_place::ProbeSet;
-use probe_scene::Scene;
-use probe_trace_gpu::{AnyField, FieldOptions, TraceOptions, TraceRay};
+use probe_scene::{Ray, Scene};
+use probe_trace_gpu::{AnyField, FieldOptions, RayResult, TraceOptions, TraceRay};
 
 const REFERENCE_RPP: u32 = 64;
 const STOCHASTIC_RPP: u32 = 16;
@@ -57,7 +61,7 @@ fn timed_image(
     options: &TraceOptions,
     size: (u32, u32),
     repeats: usize,
-) -> Result<(Image, f64), Box<dyn std::error::Error>> {
+) -> Result<(Image, f64, Vec<RayResult>), Box<dyn std::error::Error>> {
     let trace_rays: Vec<TraceRay> = rays
         .iter()
         .map(|r| TraceRay::new(r.origin, r.direction))
@@ -72,14 +76,12 @@ fn timed_image(
         last = Some(output.results);
     }
     times.sort_by(f64::total_cmp);
-    let radiance: Vec<Vec3> = last
-        .unwrap_or_default()
-        .iter()
-        .map(|r| r.radiance)
-        .collect();
+    let results = last.unwrap_or_default();
+    let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
     Ok((
         accumulate_rays(size.0, size.1, rays, &radiance)?,
         times[times.len() / 2],
+        results,
     ))
 }
 
@@ -209,13 +211,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
 
         let plain = TraceOptions::default();
-        let (converged, converged_ms) =
+        let (converged, converged_ms, _) =
             timed_image(&mut device, field, &view.rays, &plain, size, 1)?;
         let start = Instant::now();
         let stochastic_rays =
             reflection_rays(&gbuffer, Reflection::Ggx { roughness }, STOCHASTIC_RPP, 1)?;
         let stochastic_rays_ms = start.elapsed().as_secs_f64() * 1e3;
-        let (stochastic, stochastic_ms) =
+        let (stochastic, stochastic_ms, _) =
             timed_image(&mut device, field, &stochastic_rays, &plain, size, 3)?;
         let start = Instant::now();
         let filtered_rays = filtered_reflection_rays(&gbuffer, roughness)?;
@@ -224,14 +226,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             glossy_roughness: roughness,
             ..TraceOptions::default()
         };
-        let (filtered, filtered_ms) =
+        let (filtered, filtered_ms, filtered_results) =
             timed_image(&mut device, field, &filtered_rays, &cone, size, 3)?;
         // The same cone rays read by the answering probe alone (no blend), as before.
         let single = TraceOptions {
             glossy_blend: 0,
             ..cone
         };
-        let (unblended, unblended_ms) =
+        let (unblended, unblended_ms, _) =
             timed_image(&mut device, field, &filtered_rays, &single, size, 3)?;
         for (label, image, rays, ms, rays_ms) in [
             (
@@ -279,6 +281,53 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "| {roughness} | filtered one probe / stochastic time | | | | | {:.3} | |",
             unblended_ms / stochastic_ms
         );
+        // Where the blended filtered image's error sits: its pixels by what the centre ray's
+        // answer was against the BVH's (the accuracy classes), with each class's share of the
+        // MSE against the reference and against the probes' converged 64-ray image.
+        let casts: Vec<Ray> = filtered_rays
+            .iter()
+            .map(|r| Ray::new(r.origin, r.direction))
+            .collect();
+        let truth: Vec<ReferenceSample> = scene
+            .closest_hits(&casts, f32::INFINITY)
+            .into_iter()
+            .map(|hit| ReferenceSample {
+                hit,
+                radiance: Vec3::ZERO,
+            })
+            .collect();
+        let bake = baked.as_ref().ok_or("baked")?;
+        let classes = classify_pixels(
+            Footprints::of(bake),
+            &filtered_rays,
+            &truth,
+            &filtered_results,
+            &filtered,
+            reference,
+        );
+        let total_reference = tonemapped_mse(&filtered, reference);
+        let total_converged = tonemapped_mse(&filtered, &converged);
+        println!(
+            "| {roughness} | filtered 1 rpp by class | pixels | MSE vs reference (share) | | MSE vs probes 64 rpp (share) | | |"
+        );
+        for (against_reference, against_converged) in classes
+            .shares(&filtered, reference)
+            .iter()
+            .zip(classes.shares(&filtered, &converged))
+        {
+            if against_reference.pixels == 0.0 {
+                continue;
+            }
+            println!(
+                "| {roughness} | {} | {:.1} % | {:.2e} ({:.0} %) | | {:.2e} ({:.0} %) | | |",
+                against_reference.class.name(),
+                100.0 * against_reference.pixels,
+                total_reference * against_reference.mse,
+                100.0 * against_reference.mse,
+                total_converged * against_converged.mse,
+                100.0 * against_converged.mse,
+            );
+        }
         panels.push([unblended, filtered, stochastic, reference.clone()]);
     }
 

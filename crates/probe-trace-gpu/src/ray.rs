@@ -259,8 +259,8 @@ pub struct TraceOptions {
     /// around `λ` (level 0 is the usual depth-aware read). Needs a field uploaded with
     /// [`crate::FieldOptions::glossy_levels`] > 0.
     pub glossy_roughness: f32,
-    /// Filtered glossy (`glossy_roughness > 0`): how many probes a HIT or MISS answer blends
-    /// (0..=8; 0 reads the answering probe alone). The `k` probes nearest to the ray's origin
+    /// Filtered glossy (`glossy_roughness > 0`): how many probes a HIT or MISS answer, and an
+    /// UNKNOWN ray's estimate, blends (0..=8; 0 reads the answering probe alone). The `k` probes nearest to the ray's origin
     /// (the shading point) each read their prefiltered levels towards the hit (for a MISS,
     /// along the ray, where their own texel there sees the sky), weighted by
     /// `(1 − d²/R²)²` with `R` the distance to the `k+1`-th nearest probe (so the weights,

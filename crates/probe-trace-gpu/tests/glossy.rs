@@ -241,6 +241,77 @@ fn hits_read_the_pyramid_at_the_cone_footprint() {
     }
 }
 
+/// A filtered UNKNOWN ray's estimate is blended over the nearest probes like an answer
+/// (`TraceOptions::glossy_blend`): blending changes radiance only, never geometry, and the
+/// estimates of some UNKNOWN rays change with it.
+#[test]
+fn unknown_estimates_blend_like_answers() {
+    let (scene, grid) = cornell();
+    let shade = albedo_shade(&scene);
+    // Coarse maps leave more rays undecided.
+    let bake = mini_capture(&scene, &grid.positions(), 16, 50.0, &shade);
+    let rays = to_trace_rays(&reflection_rays(&scene, &camera_rays(&scene, 64, 48)));
+    let mut cpu = CpuTracer::new();
+    let field = cpu
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &glossy_options(3),
+        )
+        .unwrap();
+    let blended = cpu.trace(&field, &rays, &rough(0.3)).unwrap().results;
+    let single = TraceOptions {
+        glossy_blend: 0,
+        ..rough(0.3)
+    };
+    let alone = cpu.trace(&field, &rays, &single).unwrap().results;
+    let (mut estimates, mut changed) = (0, 0);
+    for (a, b) in blended.iter().zip(&alone) {
+        assert_eq!(
+            (a.status, a.t, a.position, a.probe),
+            (b.status, b.t, b.position, b.probe)
+        );
+        if a.status == RayStatus::Unknown && a.probe.is_some() {
+            estimates += 1;
+            changed += usize::from((a.radiance - b.radiance).abs().max_element() > 1e-4);
+        }
+    }
+    eprintln!(
+        "{estimates} estimates of {} rays, {changed} changed by the blend",
+        rays.len()
+    );
+    assert!(estimates >= 10, "{estimates}");
+    assert!(changed >= 10, "{changed} of {estimates}");
+    // The GPU blends the same estimates.
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let gpu_field = gpu
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &glossy_options(3),
+        )
+        .unwrap();
+    let on_gpu = gpu.trace(&gpu_field, &rays, &rough(0.3)).unwrap().results;
+    let agree = on_gpu
+        .iter()
+        .zip(&blended)
+        .filter(|(_, c)| c.status == RayStatus::Unknown && c.probe.is_some())
+        .filter(|(g, c)| {
+            let scale = g
+                .radiance
+                .abs()
+                .max(c.radiance.abs())
+                .max_element()
+                .max(1e-3);
+            g.probe == c.probe && (g.radiance - c.radiance).abs().max_element() <= 1e-4 * scale
+        })
+        .count();
+    assert!(
+        agree as f64 >= 0.99 * estimates as f64,
+        "{agree} of {estimates}"
+    );
+}
+
 /// Out-of-range roughness, or a cone on a field without prefiltered levels, is refused.
 #[test]
 fn bad_roughness_is_refused() {

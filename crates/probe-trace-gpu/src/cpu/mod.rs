@@ -547,7 +547,7 @@ fn glossy_radiance(
     a.to_array()
 }
 
-/// A filtered glossy answer blended over the probes nearest to the ray's origin
+/// A filtered glossy answer or UNKNOWN estimate blended over the probes nearest to the ray's origin
 /// (`TraceOptions::glossy_blend`; `gpu/trace.wgsl`'s `blended_radiance` step for step): each
 /// of the `k` nearest reads its prefiltered levels towards the hit (`hit` true, at `end`, the
 /// surface's `normal`) or, for a MISS, along `direction` where its own texel sees the sky;
@@ -801,13 +801,28 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
             }
-            record.radiance = answer_radiance(
+            let own = answer_radiance(
                 field,
                 params,
                 probe,
                 &answer,
                 origin + direction * answer.t - at,
                 direction,
+                &mut fetches,
+            );
+            // A filtered estimate blends like an answer: one wrong probe's read is the
+            // pixel's whole error otherwise (BENCHMARKS.md, "Filtered glossy").
+            record.radiance = blended_radiance(
+                field,
+                selection,
+                params,
+                origin,
+                direction,
+                answer.code == HIT,
+                origin + direction * answer.t,
+                Vec3::from(record.normal),
+                answer.t,
+                own,
                 &mut fetches,
             );
             record.probe = probe;

@@ -1129,7 +1129,7 @@ fn nearest_probes(start: u32, count: u32, p: vec3<f32>, k_in: u32) -> u32 {
     return found;
 }
 
-// A filtered glossy answer blended over the probes nearest to the ray's origin
+// A filtered glossy answer or estimate blended over the probes nearest to the ray's origin
 // (src/cpu/mod.rs blended_radiance): `own` stands where none sees the hit.
 fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec3<f32>, normal: vec3<f32>, t: f32, own: vec3<f32>) -> vec3<f32> {
     if (params.glossy_levels == 0u || params.glossy_blend == 0u || params.kd_count == 0u) {
@@ -1200,6 +1200,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     var next = 0u;
     var tried = 0u;
     var fallback = NO_PROBE;
+    var blend = false;
+    var blend_hit = false;
+    var blend_t = 0.0;
     var record: RayRecord;
     record.status = UNKNOWN;
     record.probe = NO_PROBE;
@@ -1279,6 +1282,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
             record.probe = probe;
+            // A filtered estimate blends like an answer (src/cpu/mod.rs trace_ray).
+            blend_hit = answer.code == HIT;
+            blend_t = answer.t;
+            blend = true;
             break;
         }
         if (answer.code == HIT || answer.code == MISS) {
@@ -1291,15 +1298,16 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 let cell = texel_containing(params.resolution, direction);
                 record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
-            record.radiance = blended_radiance(origin, direction, answer.code == HIT, hit, normal, answer.t, record.radiance);
             record.status = answer.code;
             record.t = answer.t;
             record.position = hit;
             record.normal = normal;
             record.probe = probe;
             record.probes_tried = tried;
-            record.texel_fetches = fetches;
-            return record;
+            blend_hit = answer.code == HIT;
+            blend_t = answer.t;
+            blend = true;
+            break;
         }
         if (answer.t > t) {
             t = answer.t;
@@ -1308,6 +1316,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         } else {
             next += 1u;
         }
+    }
+    // One call site: the blend's k-nearest search keeps its stack once per invocation.
+    if (blend) {
+        record.radiance = blended_radiance(origin, direction, blend_hit, origin + direction * blend_t, record.normal, blend_t, record.radiance);
     }
     record.texel_fetches = fetches;
     return record;
