@@ -1407,9 +1407,11 @@ pub(crate) fn trace_params(
     })
 }
 
-/// The widest cone angle whose `tan` a filtered trace uses: just below 90°, which roughness
-/// 1 reaches (`TraceParams::glossy_tan`).
-pub(crate) const MAX_CONE_ANGLE: f32 = std::f32::consts::FRAC_PI_2 - 1e-3;
+/// The widest cone (radians, from the axis) a filtered trace reads
+/// ([`crate::TraceOptions::glossy_roughness`]): just below 90°, which roughness 1 reaches. At
+/// 90° itself f32's `tan` is not a number (−2.3e7), which once sent every roughness-1 hit to
+/// the sharp level.
+pub const MAX_CONE_ANGLE: f32 = std::f32::consts::FRAC_PI_2 - 1e-3;
 
 /// Checks rays and normalises their directions.
 pub(crate) fn prepare_rays(

@@ -204,8 +204,8 @@ fn hits_read_the_pyramid_at_the_cone_footprint() {
         };
         let results = cpu.trace(&field, &rays, &single).unwrap().results;
         // The tracer caps the cone just below 90° (`tan` of 90° is not a number in f32).
-        let phi = probe_octa::ggx_lobe_angle(roughness * roughness)
-            .min(std::f32::consts::FRAC_PI_2 - 1e-3);
+        let phi =
+            probe_octa::ggx_lobe_angle(roughness * roughness).min(probe_trace_gpu::MAX_CONE_ANGLE);
         let mut checked = 0;
         for r in results.iter().filter(|r| r.status == RayStatus::Hit) {
             let probe = r.probe.unwrap() as usize;

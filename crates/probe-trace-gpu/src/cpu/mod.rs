@@ -632,6 +632,49 @@ fn blended_radiance(
     }
 }
 
+/// The radiance at the end of a ray that `probe` answered or estimated ([`answer_radiance`]),
+/// blended over the probes nearest to the ray's origin for a filtered ray
+/// ([`blended_radiance`]; `normal`: the surface's at a HIT).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one probe's answer and where to read it"
+)]
+fn end_radiance(
+    field: &PackedField,
+    selection: &PackedSelection,
+    params: &TraceParams,
+    probe: u32,
+    answer: &ProbeAnswer,
+    origin: Vec3,
+    direction: Vec3,
+    normal: Vec3,
+    fetches: &mut u32,
+) -> [f32; 3] {
+    let end = origin + direction * answer.t;
+    let own = answer_radiance(
+        field,
+        params,
+        probe,
+        answer,
+        end - field.position(probe),
+        direction,
+        fetches,
+    );
+    blended_radiance(
+        field,
+        selection,
+        params,
+        origin,
+        direction,
+        answer.code == HIT,
+        end,
+        normal,
+        answer.t,
+        own,
+        fetches,
+    )
+}
+
 /// The interior texel holding `direction`.
 fn direction_cell(resolution: u32, direction: Vec3) -> UVec2 {
     let [x, y] = probe_octa::OctaLayout::new(resolution)
@@ -794,35 +837,24 @@ pub(crate) fn trace_ray<O: RayObserver>(
         if estimating {
             // The relaxed march's first place where the ray may meet what the probe saw; if
             // it sees the ray leave, the radiance in the ray's direction.
-            let at = field.position(probe);
             if answer.code == HIT {
                 let hit = origin + direction * answer.t;
                 record.t = answer.t;
                 record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
             }
-            let own = answer_radiance(
-                field,
-                params,
-                probe,
-                &answer,
-                origin + direction * answer.t - at,
-                direction,
-                &mut fetches,
-            );
             // A filtered estimate blends like an answer: one wrong probe's read is the
             // pixel's whole error otherwise (BENCHMARKS.md, "Filtered glossy").
-            record.radiance = blended_radiance(
+            let normal = Vec3::from(record.normal);
+            record.radiance = end_radiance(
                 field,
                 selection,
                 params,
+                probe,
+                &answer,
                 origin,
                 direction,
-                answer.code == HIT,
-                origin + direction * answer.t,
-                Vec3::from(record.normal),
-                answer.t,
-                own,
+                normal,
                 &mut fetches,
             );
             record.probe = probe;
@@ -836,26 +868,15 @@ pub(crate) fn trace_ray<O: RayObserver>(
             } else {
                 Vec3::ZERO
             };
-            let own = answer_radiance(
-                field,
-                params,
-                probe,
-                &answer,
-                hit - field.position(probe),
-                direction,
-                &mut fetches,
-            );
-            let radiance = blended_radiance(
+            let radiance = end_radiance(
                 field,
                 selection,
                 params,
+                probe,
+                &answer,
                 origin,
                 direction,
-                answer.code == HIT,
-                hit,
                 normal,
-                answer.t,
-                own,
                 &mut fetches,
             );
             record.status = answer.code;
