@@ -185,6 +185,67 @@ pub(crate) fn sample_ggx_vndf(view: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
 }
 
+/// Quadrature points per side of [`ggx_lobe_mean`]'s stratified grid (`8² = 64` samples).
+const LOBE_MEAN_SIDE: u32 = 8;
+
+/// The mean of the GGX reflection lobe that [`reflection_rays`] samples, by a fixed
+/// quadrature (the centres of an 8×8 stratified grid of its random numbers; no noise): for
+/// perceptual `roughness` at a surface with `shading_normal` and `geometric_normal` seen from
+/// `view` (unit, towards the viewer), the direction of the weighted mean of the sampled
+/// reflection directions and the mean weight (Smith's `G1`, 0 for a direction below the
+/// shading or the geometric surface), as the stochastic rays would average them. `None` when
+/// no sample leaves above both surfaces.
+///
+/// One ray along this direction stands for the whole lobe better than the mirror direction
+/// where the surface cuts the lobe: near grazing (or where a normal map tilts the shading
+/// normal), the mirror ray skims the surface while the lobe's visible part points higher
+/// (BENCHMARKS.md, "Filtered glossy").
+///
+/// ```
+/// use glam::Vec3;
+/// let up = Vec3::Y;
+/// // Seen at 80° from the normal: the lobe's mean rises above the mirror direction.
+/// let view = Vec3::new(-(80f32.to_radians().sin()), 80f32.to_radians().cos(), 0.0);
+/// let mirror = 2.0 * up.dot(view) * up - view;
+/// let (mean, weight) = probe_capture::ggx_lobe_mean(view, up, up, 0.3).unwrap();
+/// assert!(mean.y > mirror.y);
+/// assert!(weight > 0.0 && weight <= 1.0);
+/// ```
+pub fn ggx_lobe_mean(
+    view: Vec3,
+    shading_normal: Vec3,
+    geometric_normal: Vec3,
+    roughness: f32,
+) -> Option<(Vec3, f32)> {
+    let n = shading_normal;
+    let alpha = (roughness * roughness).max(1e-4);
+    let (t, b) = orthonormal_basis(n);
+    let local_view = Vec3::new(view.dot(t), view.dot(b), view.dot(n));
+    let mut sum = Vec3::ZERO;
+    let mut total = 0.0f32;
+    let side = LOBE_MEAN_SIDE;
+    for i in 0..side * side {
+        let u = Vec2::new(
+            ((i % side) as f32 + 0.5) / side as f32,
+            ((i / side) as f32 + 0.5) / side as f32,
+        );
+        let m = sample_ggx_vndf(local_view, alpha, u);
+        let local = (2.0 * local_view.dot(m) * m - local_view).normalize();
+        if local.z <= 0.0 {
+            continue;
+        }
+        let direction = (t * local.x + b * local.y + n * local.z).normalize();
+        if direction.dot(geometric_normal) <= 0.0 {
+            continue;
+        }
+        let weight = smith_g1(alpha, local.z);
+        sum += weight * direction;
+        total += weight;
+    }
+    let mean = sum.normalize_or_zero();
+    (total > 0.0 && mean != Vec3::ZERO).then(|| (mean, total / (side * side) as f32))
+}
+
 /// Secondary reflection rays: `rays_per_pixel` per G-buffer pixel that hit a front face (or a
 /// double-sided surface), mirror or GGX-sampled with a seeded generator per pixel. Rays whose
 /// direction falls below the surface are left out (they contribute nothing), so a pixel may
@@ -387,5 +448,49 @@ mod tests {
         assert!((m - Vec3::Z).length() < 1e-2);
         assert!((smith_g1(0.5, 1.0) - 1.0).abs() < 1e-6);
         assert!(smith_g1(0.5, 0.1) < smith_g1(0.5, 0.9));
+    }
+
+    /// The quadrature lobe mean is what many random samples of the same lobe average to
+    /// (weight within 2 %, direction within 2°), near normal incidence, at grazing views and
+    /// with a geometric surface tilted against the shading normal (as a normal map does).
+    #[test]
+    fn lobe_mean_is_the_mean_of_the_samples() {
+        let mut rng = Rng::for_key(11, &[]);
+        let n = Vec3::Y;
+        for view_degrees in [5.0f32, 45.0, 80.0, 88.0] {
+            let a = view_degrees.to_radians();
+            let view = Vec3::new(-a.sin(), a.cos(), 0.0);
+            for geometric in [n, Vec3::new(0.15, 1.0, 0.0).normalize()] {
+                for roughness in [0.1f32, 0.3, 0.6] {
+                    let alpha = roughness * roughness;
+                    let (t, b) = orthonormal_basis(n);
+                    let local_view = Vec3::new(view.dot(t), view.dot(b), view.dot(n));
+                    let (mut sum, mut total, count) = (Vec3::ZERO, 0.0f64, 40_000);
+                    for _ in 0..count {
+                        let m = sample_ggx_vndf(local_view, alpha, rng.next_vec2());
+                        let l = (2.0 * local_view.dot(m) * m - local_view).normalize();
+                        let d = (t * l.x + b * l.y + n * l.z).normalize();
+                        if l.z > 0.0 && d.dot(geometric) > 0.0 {
+                            let w = smith_g1(alpha, l.z);
+                            sum += w * d;
+                            total += f64::from(w);
+                        }
+                    }
+                    let case = format!("view {view_degrees}°, roughness {roughness}, {geometric}");
+                    let Some((mean, weight)) = ggx_lobe_mean(view, n, geometric, roughness) else {
+                        assert!(total < 1e-3 * count as f64, "{case}: no mean but {total}");
+                        continue;
+                    };
+                    let sampled = total / count as f64;
+                    assert!(
+                        (f64::from(weight) - sampled).abs() <= 0.02 * sampled + 1e-3,
+                        "{case}: weight {weight} vs {sampled}"
+                    );
+                    let angle = mean.angle_between(sum.normalize()).to_degrees();
+                    assert!(angle < 2.0, "{case}: {angle}° apart");
+                    assert!((mean.length() - 1.0).abs() < 1e-4 && mean.dot(geometric) > 0.0);
+                }
+            }
+        }
     }
 }

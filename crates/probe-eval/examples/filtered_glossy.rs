@@ -8,6 +8,8 @@
 //! ```
 //!
 //! Defaults: `builtin:cornell grid:3x3x3 64 256x256 default docs/glossy cornell 0.1 0.3 0.6`.
+//! The environment may set `GLOSSY_BLEND` (the filtered rays' `TraceOptions::glossy_blend`,
+//! default 4) and `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1).
 //! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
 //! once with 6 prefiltered glossy levels to the GPU (lavapipe here) or, without an adapter, the
 //! CPU twin; the regular grid's cage selects probes, hi-Z traces. Per roughness:
@@ -132,6 +134,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         vec![0.1, 0.3, 0.6]
     };
     std::fs::create_dir_all(&out)?;
+    let number = |name: &str, default: u64| -> Result<u64, Box<dyn std::error::Error>> {
+        match std::env::var(name) {
+            Ok(value) => Ok(value
+                .parse()
+                .map_err(|e| format!("{name}={value}: {e} (give a whole number)"))?),
+            Err(_) => Ok(default),
+        }
+    };
+    let glossy_blend = u32::try_from(number("GLOSSY_BLEND", 4)?)?;
+    let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
 
     let scene = Scene::open(&scene_spec)?;
     let probes = ProbeSet::from_spec(&probes_spec, &scene)?;
@@ -214,8 +226,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (converged, converged_ms, _) =
             timed_image(&mut device, field, &view.rays, &plain, size, 1)?;
         let start = Instant::now();
-        let stochastic_rays =
-            reflection_rays(&gbuffer, Reflection::Ggx { roughness }, STOCHASTIC_RPP, 1)?;
+        let stochastic_rays = reflection_rays(
+            &gbuffer,
+            Reflection::Ggx { roughness },
+            STOCHASTIC_RPP,
+            stochastic_seed,
+        )?;
         let stochastic_rays_ms = start.elapsed().as_secs_f64() * 1e3;
         let (stochastic, stochastic_ms, _) =
             timed_image(&mut device, field, &stochastic_rays, &plain, size, 3)?;
@@ -224,6 +240,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let filtered_rays_ms = start.elapsed().as_secs_f64() * 1e3;
         let cone = TraceOptions {
             glossy_roughness: roughness,
+            glossy_blend,
             ..TraceOptions::default()
         };
         let (filtered, filtered_ms, filtered_results) =
