@@ -450,6 +450,47 @@ mod tests {
         assert!(smith_g1(0.5, 0.1) < smith_g1(0.5, 0.9));
     }
 
+    fn unit(theta: f32, phi: f32) -> Vec3 {
+        Vec3::new(
+            theta.sin() * phi.cos(),
+            theta.cos(),
+            theta.sin() * phi.sin(),
+        )
+    }
+
+    proptest::proptest! {
+        /// For any view above the shading surface, any geometric normal within 60° of the
+        /// shading normal and any roughness: the lobe mean is a unit direction above the
+        /// geometric surface with a weight in (0, 1], or `None` only when the whole lobe falls
+        /// below that surface.
+        #[test]
+        fn lobe_mean_leaves_above_the_surface(
+            view_theta in 0.0f32..1.55,
+            view_phi in 0.0f32..std::f32::consts::TAU,
+            tilt_theta in 0.0f32..1.05,
+            tilt_phi in 0.0f32..std::f32::consts::TAU,
+            roughness in 0.02f32..=1.0,
+        ) {
+            let view = unit(view_theta, view_phi);
+            let geometric = unit(tilt_theta, tilt_phi);
+            match ggx_lobe_mean(view, Vec3::Y, geometric, roughness) {
+                Some((mean, weight)) => {
+                    proptest::prop_assert!(mean.is_finite() && (mean.length() - 1.0).abs() < 1e-4);
+                    proptest::prop_assert!(mean.dot(geometric) > 0.0, "{mean} below {geometric}");
+                    proptest::prop_assert!(weight > 0.0 && weight <= 1.0 + 1e-5, "{weight}");
+                }
+                None => {
+                    // Then not even the mirror direction can leave above both surfaces.
+                    let mirror = 2.0 * view.y * Vec3::Y - view;
+                    proptest::prop_assert!(
+                        roughness > 0.1 || mirror.dot(geometric) <= 0.05,
+                        "no mean though the mirror {mirror} leaves above {geometric}"
+                    );
+                }
+            }
+        }
+    }
+
     /// The quadrature lobe mean is what many random samples of the same lobe average to
     /// (weight within 2 %, direction within 2°), near normal incidence, at grazing views and
     /// with a geometric surface tilted against the shading normal (as a normal map does).
