@@ -20,8 +20,9 @@
 //! - **probes, 64 rpp**: the same 64 rays per pixel traced through the probes (what the
 //!   stochastic estimate converges to);
 //! - **stochastic 16 rpp**: 16 GGX rays per pixel (another seed) through the probes;
-//! - **filtered 1 rpp**: one mirror ray per pixel traced with `glossy_roughness`, weighted
-//!   with the lobe's albedo (`probe_eval::glossy`).
+//! - **filtered 1 rpp**: one ray per pixel along the GGX lobe's mean, traced with
+//!   `glossy_roughness` and weighted with the lobe's mean weight
+//!   (`probe_eval::glossy::filtered_reflection_rays`).
 //!
 //! Trace times of the filtered and stochastic images are the median of 3 calls after a warm-up
 //! call (GPU timestamps when the device has them, else wall time); the 64-rpp trace runs once.

@@ -5,27 +5,13 @@
 //! samples (Smith's `G1` under visible-normal sampling, Fresnel 1) average to, which
 //! [`probe_capture::ggx_lobe_mean`] integrates by a fixed quadrature (no noise).
 
-use glam::Vec3;
-use probe_capture::{EvaluationRay, GBuffer, RenderError, SurfaceResponse, specular_albedo};
+use probe_capture::{EvaluationRay, GBuffer, RenderError};
 use probe_scene::Ray;
 use rayon::prelude::*;
 
 /// Prefiltered glossy levels a filtered trace uploads
 /// ([`probe_trace_gpu::FieldOptions::glossy_levels`]; down to 2×2 at 128²).
 pub const GLOSSY_LEVELS: u32 = 6;
-
-/// The directional albedo of a GGX lobe with perceptual `roughness` (`α = roughness²`) seen at
-/// view cosine `cos_view`, with Fresnel 1: the expected weight of one
-/// [`probe_capture::reflection_rays`] sample (`G1` of the reflected direction, 0 below the
-/// surface); probe-capture's [`specular_albedo`] quadrature with a white `F0`.
-pub fn ggx_albedo(roughness: f32, cos_view: f32) -> f32 {
-    let lobe = SurfaceResponse {
-        diffuse: Vec3::ZERO,
-        f0: Vec3::ONE,
-        roughness,
-    };
-    specular_albedo(&lobe, cos_view.clamp(1e-4, 1.0)).x
-}
 
 /// One filtered reflection ray per G-buffer pixel that hits a front face (or a double-sided
 /// surface), along the mean of the GGX lobe the stochastic rays sample and weighted by their
@@ -103,6 +89,10 @@ mod tests {
             );
         }
         assert!(filtered_reflection_rays(&gbuffer, 0.0).is_err());
-        assert!((ggx_albedo(0.01, 0.7) - 1.0).abs() < 1e-3);
+        // A nearly smooth lobe keeps all its weight.
+        let view = glam::Vec3::new(0.7, (1.0f32 - 0.49).sqrt(), 0.0);
+        let (_, weight) =
+            probe_capture::ggx_lobe_mean(view, glam::Vec3::Y, glam::Vec3::Y, 0.01).unwrap();
+        assert!((weight - 1.0).abs() < 1e-3, "{weight}");
     }
 }

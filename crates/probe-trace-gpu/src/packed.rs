@@ -995,35 +995,27 @@ impl PackedIrradiance {
                 index,
             });
         }
+        let surfels_per_probe = field.surfels.len() / probes;
         if !field.surfels.is_empty() {
-            let per_probe = field.surfels.len() / probes;
-            if per_probe == 0 || per_probe * probes != field.surfels.len() {
+            if surfels_per_probe == 0 || surfels_per_probe * probes != field.surfels.len() {
                 return Err(UploadError::LengthMismatch {
                     parameter: "surfels",
-                    expected: probes * per_probe.max(1),
+                    expected: probes * surfels_per_probe.max(1),
                     actual: field.surfels.len(),
                 });
             }
-            if per_probe > MAX_SURFELS_PER_PROBE {
+            if surfels_per_probe > MAX_SURFELS_PER_PROBE {
                 return Err(UploadError::BadParameter {
                     parameter: "surfels per probe",
-                    value: per_probe as f32,
+                    value: surfels_per_probe as f32,
                     requirement: "at most 4096 per probe (a 64×64 surfel map)",
                 });
             }
-            let bad = field.surfels.iter().position(|s| {
-                ![
-                    s.position,
-                    s.normal,
-                    s.radiance,
-                    s.sky_direction,
-                    s.sky_radiance,
-                ]
+            // Every number the GPU reads is in the packed form.
+            let bad = field
+                .surfels
                 .iter()
-                .all(|v| v.is_finite())
-                    || !s.area.is_finite()
-                    || !s.sky_solid_angle.is_finite()
-            });
+                .position(|s| !pack_surfel(s).as_flattened().iter().all(|v| v.is_finite()));
             if let Some(index) = bad {
                 return Err(UploadError::NonFinite {
                     parameter: "surfels",
@@ -1056,7 +1048,7 @@ impl PackedIrradiance {
             hull_count: 0,
         };
         if !field.surfels.is_empty() {
-            packed.pack_surfels(field)?;
+            packed.pack_surfels(field, surfels_per_probe)?;
         }
         match interpolation {
             Interpolation::Grid(grid) => {
@@ -1174,11 +1166,14 @@ impl PackedIrradiance {
 }
 
 impl PackedIrradiance {
-    /// Packs `field`'s surfels and appends each probe's surfel irradiance map (at the
-    /// irradiance maps' resolution) after the irradiance maps.
-    fn pack_surfels(&mut self, field: &IrradianceField<'_>) -> Result<(), UploadError> {
-        let probes = field.positions.len();
-        let per_probe = field.surfels.len() / probes;
+    /// Packs `field`'s surfels (`per_probe` per probe, checked by [`Self::new`]) and appends
+    /// each probe's surfel irradiance map (at the irradiance maps' resolution) after the
+    /// irradiance maps.
+    fn pack_surfels(
+        &mut self,
+        field: &IrradianceField<'_>,
+        per_probe: usize,
+    ) -> Result<(), UploadError> {
         self.surfels_per_probe = per_probe as u32;
         self.surfels = field.surfels.iter().flat_map(pack_surfel).collect();
         for (p, position) in field.positions.iter().enumerate() {
