@@ -11,8 +11,8 @@ use glam::Vec3;
 use probe_index::ProbeGrid;
 use probe_scene::Scene;
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, TraceError, TraceOptions,
-    TraceRay, Tracer,
+    CpuField, CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, TraceError,
+    TraceOptions, TraceRay, Tracer,
 };
 use support::{
     Bake, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
@@ -36,6 +36,19 @@ fn glossy_options(levels: u32) -> FieldOptions {
         glossy_levels: levels,
         ..FieldOptions::default()
     }
+}
+
+/// The CPU twin with `bake` uploaded over `grid` with `levels` prefiltered glossy levels.
+fn cpu_with_levels(bake: &Bake, grid: ProbeGrid, levels: u32) -> (CpuTracer, CpuField) {
+    let cpu = CpuTracer::new();
+    let field = cpu
+        .upload(
+            &bake.field(),
+            &ProbeSelection::Grid(grid),
+            &glossy_options(levels),
+        )
+        .unwrap();
+    (cpu, field)
 }
 
 fn rough(roughness: f32) -> TraceOptions {
@@ -137,14 +150,7 @@ fn constant_radiance_is_kept() {
     let colour = Vec3::new(0.2, 0.7, 3.0);
     bake.radiance.iter_mut().for_each(|c| *c = colour);
     let grid = ProbeGrid::new(Vec3::splat(-0.5), Vec3::ONE, [2, 2, 2]).unwrap();
-    let mut cpu = CpuTracer::new();
-    let field = cpu
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &glossy_options(3),
-        )
-        .unwrap();
+    let (mut cpu, field) = cpu_with_levels(&bake, grid, 3);
     let rays: Vec<TraceRay> = (0..64)
         .map(|i| {
             let a = i as f32 * 0.7;
@@ -186,14 +192,7 @@ fn hits_read_the_pyramid_at_the_cone_footprint() {
         .map(|p| probe_octa::glossy_pyramid(&bake.radiance_map(p), levels).unwrap())
         .collect();
     let rays = to_trace_rays(&reflection_rays(&scene, &camera_rays(&scene, 40, 30)));
-    let mut cpu = CpuTracer::new();
-    let field = cpu
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &glossy_options(levels),
-        )
-        .unwrap();
+    let (mut cpu, field) = cpu_with_levels(&bake, grid, levels);
     // Roughness 1 is a cone of 90°, where f32's `tan` once turned negative and sent every hit
     // to level 0: its hits must read the top levels like any other wide cone.
     for roughness in [0.3, 0.6, 1.0] {
@@ -251,14 +250,7 @@ fn unknown_estimates_blend_like_answers() {
     // Coarse maps leave more rays undecided.
     let bake = mini_capture(&scene, &grid.positions(), 16, 50.0, &shade);
     let rays = to_trace_rays(&reflection_rays(&scene, &camera_rays(&scene, 64, 48)));
-    let mut cpu = CpuTracer::new();
-    let field = cpu
-        .upload(
-            &bake.field(),
-            &ProbeSelection::Grid(grid),
-            &glossy_options(3),
-        )
-        .unwrap();
+    let (mut cpu, field) = cpu_with_levels(&bake, grid, 3);
     let blended = cpu.trace(&field, &rays, &rough(0.3)).unwrap().results;
     let single = TraceOptions {
         glossy_blend: 0,
