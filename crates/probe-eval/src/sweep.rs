@@ -96,6 +96,10 @@ pub struct EvalConfig {
     pub views: usize,
     /// Seed of the sampled viewpoints (another seed gives a held-out view set).
     pub view_seed: u64,
+    /// Sampled viewpoints (at least; besides the cameras) of the view set `+views`
+    /// placements learn from (seed [`training_seed`]): cheap (no render, no bake), and an
+    /// error-driven set generalises to views it did not learn from only with many.
+    pub training_views: usize,
 }
 
 /// One scene of the sweep.
@@ -179,6 +183,7 @@ impl Default for EvalConfig {
             reference_max_samples: 1024,
             views: 0,
             view_seed: 1,
+            training_views: 64,
         }
     }
 }
@@ -480,16 +485,23 @@ fn placement_specs(
         let views = text.contains("+views");
         let text = text.replace("+complete", "").replace("+views", "");
         // `~E`: an error-driven target (the share of the views' points left unseen).
-        let (text, target_error) = match text.split_once('~') {
-            Some((base, e)) => match e.parse::<f32>() {
-                Ok(e) if (0.0..1.0).contains(&e) => (base.to_owned(), Some(e)),
-                _ => {
-                    return Err(config.invalid(format!(
-                        "placement target {e:?}: give a share of the views' points in [0, 1), e.g. minimal+views~0.05"
-                    )));
+        // It holds for each view; `~E/mean`: over all views together.
+        let (text, target_error, target_mean) = match text.split_once('~') {
+            Some((base, e)) => {
+                let (e, mean) = match e.strip_suffix("/mean") {
+                    Some(e) => (e, true),
+                    None => (e, false),
+                };
+                match e.parse::<f32>() {
+                    Ok(e) if (0.0..1.0).contains(&e) => (base.to_owned(), Some(e), mean),
+                    _ => {
+                        return Err(config.invalid(format!(
+                            "placement target {e:?}: give a share of the views' points in [0, 1), e.g. minimal+views~0.05 (each view) or minimal+views~0.05/mean (all views together)"
+                        )));
+                    }
                 }
-            },
-            None => (text, None),
+            }
+            None => (text, None, false),
         };
         let text = text.as_str();
         let mut push = |family: &'static str, mut options: PlaceOptions| {
@@ -517,7 +529,11 @@ fn placement_specs(
             }
             if let Some(e) = target_error {
                 options.coverage = 1.0 - e;
+                options.each_view = !target_mean;
                 name.push_str(&format!("~{e}"));
+                if target_mean {
+                    name.push_str("/mean");
+                }
             }
             specs.push(PlacementSpec {
                 name,
@@ -999,7 +1015,7 @@ pub fn run_sweep(
             &scene,
             &ViewSetOptions {
                 cameras: scene_config.cameras.clone(),
-                sampled: sampled.max(8),
+                sampled: sampled.max(config.training_views),
                 seed: training_seed(config.view_seed),
                 region: region.clone(),
             },

@@ -61,6 +61,12 @@ pub struct CoverParams {
     /// Gibbs refinement of the chosen set when the greedy choice falls short of the target
     /// (`None`: no refinement). Refinement moves probes and never lowers coverage.
     pub refine: Option<GibbsParams>,
+    /// For an atlas of views ([`Atlas::from_view_samples`]): the target holds for the
+    /// texels of **each view**, not only for all of them together, so that no view is left
+    /// far below it (a viewpoint the set did not learn from then meets it too, within the
+    /// spread between views). Ignored for other atlases.
+    #[serde(default)]
+    pub each_view: bool,
 }
 
 impl CoverParams {
@@ -70,6 +76,7 @@ impl CoverParams {
             target_coverage: 1.0,
             budget: None,
             refine: None,
+            each_view: false,
         }
     }
 }
@@ -162,7 +169,8 @@ pub fn prune_redundant(
         .map(|p| texel_ids(atlas.probe_views(*p)))
         .collect();
     let all: Vec<usize> = (0..probes.len()).collect();
-    let (kept, before, after) = prune_views(&views, &all, min_coverage, atlas.samples().len());
+    let groups = TexelGroups::pooled(atlas.samples().len(), min_coverage);
+    let (kept, before, after) = prune_views(&views, &all, &groups);
     Ok(Pruned {
         kept,
         coverage_before: before,
@@ -174,38 +182,111 @@ fn texel_ids(views: Vec<ProbeView>) -> Vec<u32> {
     views.into_iter().map(|v| v.sample).collect()
 }
 
-/// Prunes `members` (indices into `views`, the texels each sees); returns (kept, coverage
-/// before, after).
+/// Which texels must be covered: each texel's group and how many texels of each group the
+/// target needs (one group for a target over all texels, one per view for a target held by
+/// every view).
+struct TexelGroups {
+    of: Vec<u32>,
+    needed: Vec<usize>,
+}
+
+impl TexelGroups {
+    fn pooled(texels: usize, target: f32) -> TexelGroups {
+        TexelGroups {
+            of: vec![0; texels],
+            needed: vec![needed_texels(target, texels)],
+        }
+    }
+
+    /// One group per view of `atlas` when it has views and `each_view` is asked for.
+    fn of(atlas: &Atlas<'_>, target: f32, each_view: bool) -> TexelGroups {
+        let labels = atlas.sample_views();
+        if !each_view || labels.is_empty() {
+            return TexelGroups::pooled(atlas.samples().len(), target);
+        }
+        let count = labels.iter().max().map_or(0, |m| *m as usize + 1);
+        let mut sizes = vec![0usize; count];
+        for &l in labels {
+            sizes[l as usize] += 1;
+        }
+        TexelGroups {
+            of: labels.to_vec(),
+            needed: sizes.iter().map(|&n| needed_texels(target, n)).collect(),
+        }
+    }
+
+    fn texels(&self) -> usize {
+        self.of.len()
+    }
+
+    /// Per group, how many of its texels `seen` says are seen.
+    fn covered(&self, seen: impl Fn(usize) -> bool) -> Vec<usize> {
+        let mut covered = vec![0usize; self.needed.len()];
+        for (t, &g) in self.of.iter().enumerate() {
+            if seen(t) {
+                covered[g as usize] += 1;
+            }
+        }
+        covered
+    }
+
+    fn reached(&self, covered: &[usize]) -> bool {
+        covered.iter().zip(&self.needed).all(|(c, n)| c >= n)
+    }
+}
+
+/// Prunes `members` (indices into `views`, the texels each sees), keeping in every group at
+/// least `min(needed, covered by all members)` texels; returns (kept, coverage before, after).
 fn prune_views(
     views: &[Vec<u32>],
     members: &[usize],
-    min_coverage: f32,
-    texels: usize,
+    groups: &TexelGroups,
 ) -> (Vec<usize>, f64, f64) {
+    let texels = groups.texels();
     let mut count = vec![0u32; texels];
     for &m in members {
         for v in &views[m] {
             count[*v as usize] += 1;
         }
     }
-    let mut covered = count.iter().filter(|c| **c > 0).count();
-    let before = covered as f64 / texels as f64;
-    let floor = needed_texels(min_coverage, texels).min(covered);
+    let mut covered = groups.covered(|t| count[t] > 0);
+    let total = |covered: &[usize]| covered.iter().sum::<usize>() as f64 / texels as f64;
+    let before = total(&covered);
+    let floor: Vec<usize> = covered
+        .iter()
+        .zip(&groups.needed)
+        .map(|(c, n)| *n.min(c))
+        .collect();
     let mut order = members.to_vec();
     order.sort_by_key(|&m| (views[m].len(), m));
     let mut dropped = vec![false; views.len()];
+    let mut lost = vec![0usize; covered.len()];
     for m in order {
-        let lost = views[m].iter().filter(|v| count[**v as usize] == 1).count();
-        if covered - lost >= floor {
+        let mut touched = Vec::new();
+        for v in &views[m] {
+            if count[*v as usize] == 1 {
+                let g = groups.of[*v as usize] as usize;
+                if lost[g] == 0 {
+                    touched.push(g);
+                }
+                lost[g] += 1;
+            }
+        }
+        if touched.iter().all(|&g| covered[g] - lost[g] >= floor[g]) {
             for v in &views[m] {
                 count[*v as usize] -= 1;
             }
-            covered -= lost;
+            for &g in &touched {
+                covered[g] -= lost[g];
+            }
             dropped[m] = true;
+        }
+        for &g in &touched {
+            lost[g] = 0;
         }
     }
     let kept = members.iter().copied().filter(|m| !dropped[*m]).collect();
-    (kept, before, covered as f64 / texels as f64)
+    (kept, before, total(&covered))
 }
 
 /// As few probes as reach `params.target_coverage` (or as much coverage as
@@ -255,24 +336,50 @@ pub fn minimal_cover(
         .par_iter()
         .map(|&i| texel_ids(atlas.probe_views(candidates[i])))
         .collect();
-    let needed = needed_texels(params.target_coverage, texels);
+    let groups = TexelGroups::of(atlas, params.target_coverage, params.each_view);
+    let by_view = groups.needed.len() > 1;
     let budget = params.budget.unwrap_or(usize::MAX);
 
-    // Lazy greedy: the heap holds (gain bound, lowest index first).
+    // Lazy greedy: the heap holds (gain bound, lowest index first). Held by each view, a
+    // candidate gains only the texels of views still short of the target, up to what each
+    // needs (a truncated coverage: still submodular, so gains only shrink).
     let mut seen = vec![false; texels];
-    let mut covered = 0usize;
+    let mut short: Vec<usize> = groups.needed.clone();
+    let mut remaining: usize = short.iter().sum();
+    let mut new_by_group = vec![0usize; short.len()];
+    let mut gain_of = |u: usize, seen: &[bool], short: &[usize]| -> usize {
+        if !by_view {
+            return views[u].iter().filter(|v| !seen[**v as usize]).count();
+        }
+        let mut touched = Vec::new();
+        for v in &views[u] {
+            if !seen[*v as usize] {
+                let g = groups.of[*v as usize] as usize;
+                if new_by_group[g] == 0 {
+                    touched.push(g);
+                }
+                new_by_group[g] += 1;
+            }
+        }
+        let gain = touched.iter().map(|&g| new_by_group[g].min(short[g])).sum();
+        for g in touched {
+            new_by_group[g] = 0;
+        }
+        gain
+    };
     let mut heap: BinaryHeap<(usize, Reverse<usize>)> = views
         .iter()
         .enumerate()
         .map(|(u, v)| (v.len(), Reverse(u)))
         .collect();
+    let mut covered = 0usize;
     let mut picks: Vec<usize> = Vec::new();
     let mut coverage_by_count = Vec::new();
-    while covered < needed && picks.len() < budget {
+    while remaining > 0 && picks.len() < budget {
         let Some((_, Reverse(u))) = heap.pop() else {
             break;
         };
-        let gain = views[u].iter().filter(|v| !seen[**v as usize]).count();
+        let gain = gain_of(u, &seen, &short);
         if gain == 0 {
             continue;
         }
@@ -287,36 +394,41 @@ pub fn minimal_cover(
             if !*s {
                 *s = true;
                 covered += 1;
+                let g = groups.of[*v as usize] as usize;
+                if short[g] > 0 {
+                    short[g] -= 1;
+                    remaining -= 1;
+                }
             }
         }
         picks.push(u);
         coverage_by_count.push(covered as f64 / texels as f64);
     }
-    let target_floor = params.target_coverage;
-    let (kept, _, _) = prune_views(&views, &picks, target_floor, texels);
+    let (kept, _, _) = prune_views(&views, &picks, &groups);
     let pruned = picks.len() - kept.len();
     let chosen_usable: Vec<usize> = picks.iter().copied().filter(|p| kept.contains(p)).collect();
     let chosen: Vec<usize> = chosen_usable.iter().map(|&u| usable[u]).collect();
     let mut positions: Vec<Vec3> = chosen.iter().map(|&i| candidates[i]).collect();
-    let mut coverage = {
-        let mut seen = vec![false; texels];
-        for &u in &chosen_usable {
-            for v in &views[u] {
-                seen[*v as usize] = true;
-            }
+    let mut seen = vec![false; texels];
+    for &u in &chosen_usable {
+        for v in &views[u] {
+            seen[*v as usize] = true;
         }
-        seen.iter().filter(|s| **s).count() as f64 / texels as f64
-    };
+    }
+    let mut coverage = seen.iter().filter(|s| **s).count() as f64 / texels as f64;
+    let mut reached = groups.reached(&groups.covered(|t| seen[t]));
     let mut refinement = None;
-    let reached = |c: f64| c * texels as f64 >= needed as f64 - 1e-9;
+    // Gibbs raises coverage over all texels: it serves a target over all of them.
     if let Some(refine) = &params.refine
-        && !reached(coverage)
+        && !reached
+        && !by_view
         && !positions.is_empty()
     {
         let result = gibbs(atlas, free, &positions, refine)?;
         if result.coverage > coverage {
             positions = result.positions();
             coverage = result.coverage;
+            reached = coverage * texels as f64 >= groups.needed[0] as f64 - 1e-9;
         }
         refinement = Some(result);
     }
@@ -326,7 +438,7 @@ pub fn minimal_cover(
         coverage_by_count,
         pruned,
         coverage,
-        reached_target: reached(coverage),
+        reached_target: reached,
         refinement,
     })
 }
@@ -348,14 +460,32 @@ mod tests {
             vec![view(0), view(1), view(2), view(3)],
             vec![view(3)],
         ];
-        let (kept, before, after) = prune_views(&views, &[0, 1, 2, 3], 1.0, 4);
+        let (kept, before, after) =
+            prune_views(&views, &[0, 1, 2, 3], &TexelGroups::pooled(4, 1.0));
         assert_eq!((before, after), (1.0, 1.0));
         // Visit order by view count: 3 (1 texel), 0, 1 (2 each), 2: 3, 0 and 1 are redundant
         // while 2 remains; 2 is then the only one left.
         assert_eq!(kept, vec![2]);
         // With a 50 % floor everything but one probe can go.
-        let (kept, _, after) = prune_views(&views, &[0, 1, 3], 0.5, 4);
+        let (kept, _, after) = prune_views(&views, &[0, 1, 3], &TexelGroups::pooled(4, 0.5));
         assert!(after >= 0.5 && kept.len() == 1, "{kept:?} {after}");
+    }
+
+    #[test]
+    fn pruning_by_view_keeps_each_views_target() {
+        // Texels 0–2 come from view 0, texel 3 from view 1; probe 0 sees {0, 1, 2}, probe 1
+        // sees {3}. Over all texels 75 % needs probe 0 alone; for each view, probe 1 too.
+        let views = vec![vec![view(0), view(1), view(2)], vec![view(3)]];
+        let pooled = TexelGroups::pooled(4, 0.75);
+        assert_eq!(prune_views(&views, &[0, 1], &pooled).0, vec![0]);
+        let by_view = TexelGroups {
+            of: vec![0, 0, 0, 1],
+            needed: vec![needed_texels(0.75, 3), needed_texels(0.75, 1)],
+        };
+        let (kept, _, after) = prune_views(&views, &[0, 1], &by_view);
+        assert_eq!((kept, after), (vec![0, 1], 1.0));
+        assert!(by_view.reached(&by_view.covered(|_| true)));
+        assert!(!by_view.reached(&by_view.covered(|t| t < 3)));
     }
 }
 

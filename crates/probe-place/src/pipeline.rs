@@ -29,7 +29,7 @@ use std::time::Instant;
 use crate::atlas::FreeSpace;
 pub use crate::provenance::PlaceProvenance;
 use crate::provenance::PlacementMethod;
-use crate::viewers::view_samples;
+use crate::viewers::view_samples_per_view;
 use crate::{
     ProbeSet,
     atlas::{Atlas, AtlasParams, BackfaceVote, PlacementReport, VoxelFreeSpace, free_space_grid},
@@ -187,13 +187,18 @@ pub struct PlaceOptions {
     /// point (of the region) sees at a non-grazing angle.
     pub complete: bool,
     /// A view set: when given, the atlas's texels are the points these cameras see directly
-    /// and in mirror reflection ([`view_samples`], about `atlas_texels` in all) instead of
+    /// and in mirror reflection ([`view_samples`](crate::viewers::view_samples), about `atlas_texels` in all) instead of
     /// equal-area samples, so surfaces weigh by how much the viewers see them, and coverage
     /// is the share of what they see that some probe sees at a non-grazing angle — the cheap
     /// proxy of their glossy error. With [`Method::Minimal`] this gives the error-driven sets:
     /// greedy additions of the candidate that most lowers the proxy, then pruning of every
     /// probe whose removal keeps the target (`coverage` = 1 − target error).
     pub viewers: Option<Vec<Camera>>,
+    /// With `viewers` and `coverage` below 1: the target holds for what **each** view sees,
+    /// not only for all views together ([`CoverParams::each_view`]). A viewpoint the set did
+    /// not learn from then meets it too, within the spread between views; the set needs
+    /// more probes.
+    pub each_view: bool,
 }
 
 impl PlaceOptions {
@@ -213,6 +218,7 @@ impl PlaceOptions {
             region: None,
             complete: false,
             viewers: None,
+            each_view: false,
         }
     }
 }
@@ -230,6 +236,17 @@ pub struct Placement {
     pub full_grid: Option<[u32; 3]>,
     /// Seconds to build the free-space test and the atlas (not part of the method's time).
     pub atlas_seconds: f64,
+}
+
+/// The voxels of the free-space test placement uses with the ray vote (both must agree that
+/// a point is free): 1/160 of the scene's longest side. The view proxy
+/// ([`crate::viewers::ViewProxy`]) uses the same test, so that it counts the texels the
+/// placement's atlas counts.
+pub(crate) fn free_space_voxels(scene: &Scene) -> Result<VoxelGrid, PlaceError> {
+    Ok(VoxelGrid::build(
+        scene,
+        scene.bounds().size().max_element() / 160.0,
+    )?)
 }
 
 /// Adds candidates to `chosen`, each time the one that raises the atlas reward R(P) (best-probe
@@ -367,7 +384,7 @@ pub fn place(
 
     // The free-space test (ray vote and SDF voxels must agree) and the atlas.
     let atlas_start = Instant::now();
-    let voxels = VoxelGrid::build(scene, scene_longest / 160.0)?;
+    let voxels = free_space_voxels(scene)?;
     let scene_free = (
         BackfaceVote::new(scene),
         VoxelFreeSpace::new(&voxels, scene.bounds()),
@@ -399,8 +416,8 @@ pub fn place(
                 });
             }
             let per_view = (options.atlas_texels / (2 * cameras.len())).max(16);
-            let samples = view_samples(scene, cameras, per_view);
-            Atlas::from_samples(scene, &atlas_params, samples, &pool)?
+            let samples = view_samples_per_view(scene, cameras, per_view);
+            Atlas::from_view_samples(scene, &atlas_params, samples, &pool)?
         }
         None => Atlas::build(scene, &atlas_params, &pool)?,
     };
@@ -474,6 +491,7 @@ pub fn place(
                     target_coverage: options.coverage,
                     budget: options.budget,
                     refine: None,
+                    each_view: options.each_view,
                 },
             )?;
             match options.budget {
@@ -504,6 +522,7 @@ pub fn place(
                 target_coverage: options.coverage,
                 budget: options.budget,
                 refine: None,
+                each_view: options.each_view,
             },
         )?;
         positions = set.positions();
@@ -551,6 +570,7 @@ pub fn place(
     run.viewers = options.viewers.as_ref().map(Vec::len);
     if options.coverage < 1.0 {
         run.coverage_target = Some(options.coverage);
+        run.each_view = options.each_view && options.viewers.is_some();
     }
     let method = PlacementMethod::Placed(run);
     if positions.is_empty() {

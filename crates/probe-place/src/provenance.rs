@@ -81,6 +81,8 @@ pub struct PlaceProvenance {
     pub budget: Option<usize>,
     /// The coverage target, when below 1.
     pub coverage_target: Option<f32>,
+    /// Whether the target held for each view ([`PlaceOptions::each_view`](crate::pipeline::PlaceOptions::each_view)).
+    pub each_view: bool,
     /// The seed of every random choice.
     pub seed: u64,
     /// [`Method::GridRelocated`]: probes switched off.
@@ -109,6 +111,7 @@ impl PlaceProvenance {
             optimizer: None,
             budget: None,
             coverage_target: None,
+            each_view: false,
             seed,
             removed: None,
             spacing: None,
@@ -220,6 +223,9 @@ impl PlacementMethod {
                 }
                 if let Some(target) = run.coverage_target {
                     put("coverage_target", json!(target));
+                }
+                if run.each_view {
+                    put("each_view", json!(true));
                 }
                 put("seed", json!(run.seed));
                 if let Some(region) = &run.region {

@@ -18,9 +18,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use crate::atlas::{Atlas, AtlasParams, BackfaceVote, FreeSpace, SurfaceSample, free_space_grid};
+use crate::atlas::{
+    Atlas, AtlasParams, BackfaceVote, FreeSpace, SurfaceSample, VoxelFreeSpace, free_space_grid,
+};
 use crate::par::*;
-use crate::pipeline::PlaceError;
+use crate::pipeline::{PlaceError, free_space_voxels};
 use crate::region::{Region, RegionError, RegionFreeSpace};
 use glam::{Vec2, Vec3};
 use probe_scene::{Camera, Hit, Ray, Scene};
@@ -35,6 +37,19 @@ pub fn view_samples(
     cameras: &[Camera],
     pixels_per_view: usize,
 ) -> Vec<SurfaceSample> {
+    view_samples_per_view(scene, cameras, pixels_per_view)
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// [`view_samples`] with each camera's samples apart, in camera order (for
+/// [`Atlas::from_view_samples`], whose texels remember their view).
+pub fn view_samples_per_view(
+    scene: &Scene,
+    cameras: &[Camera],
+    pixels_per_view: usize,
+) -> Vec<Vec<SurfaceSample>> {
     let mut out = Vec::new();
     for camera in cameras {
         let aspect = camera.aspect.unwrap_or(1.0).max(1e-3);
@@ -69,7 +84,7 @@ pub fn view_samples(
                 row
             })
             .collect();
-        out.extend(rows.into_iter().flatten());
+        out.push(rows.into_iter().flatten().collect());
     }
     out
 }
@@ -94,7 +109,8 @@ pub struct ViewProxy<'a> {
 impl<'a> ViewProxy<'a> {
     /// The proxy of `cameras` (about `samples` points in all) in `scene`, reference points on
     /// a grid of 1/25 of the longest side of the region (of the scene without one) that the
-    /// ray vote finds free.
+    /// free-space test of placement (the ray vote and the voxels) finds free, so that it counts
+    /// what an error-driven placement's atlas counts.
     ///
     /// # Errors
     /// [`PlaceError::Region`] for a bad region or one without free space,
@@ -109,8 +125,12 @@ impl<'a> ViewProxy<'a> {
             Some(r) => Some(r.within(scene.bounds())?),
             None => None,
         };
-        let vote = BackfaceVote::new(scene);
-        let region_free = RegionFreeSpace::new(&vote, region.as_ref());
+        let voxels = free_space_voxels(scene)?;
+        let scene_free = (
+            BackfaceVote::new(scene),
+            VoxelFreeSpace::new(&voxels, scene.bounds()),
+        );
+        let region_free = RegionFreeSpace::new(&scene_free, region.as_ref());
         let free: &dyn FreeSpace = &region_free;
         let spacing = free.bounds().size().max_element() / 25.0;
         let pool = free_space_grid(free, spacing);

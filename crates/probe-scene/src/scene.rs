@@ -29,6 +29,7 @@ pub(crate) const MAX_TRIANGLES: usize = (1 << 31) - 1;
 pub const MAX_COORDINATE: f32 = 1.0e18;
 /// The memory a loaded triangle takes, for the up-front check of a file's declared size: the
 /// [`Triangle`] itself, its BVH share while the BVH is built, and the decoded vertices.
+#[cfg(feature = "gltf")]
 pub(crate) const BYTES_PER_TRIANGLE: u64 = size_of::<Triangle>() as u64 + 160;
 /// Set in a BVH slot's id when the triangle's material is an alpha mask.
 const MASKED: u32 = 1 << 31;

@@ -88,8 +88,14 @@ pub struct Args {
     /// Error-driven set (with `--method minimal` and `--views`): the share of what the views
     /// see, directly and in reflection, that may stay unseen by every probe (the proxy of their
     /// glossy error); sets `--coverage` to 1 − E.
+    /// The target holds for each view (so that views the set did not learn from meet it
+    /// too); see `--target-mean`. Sample 64 or more views: the set generalises from them.
     #[arg(long, value_name = "E", conflicts_with = "coverage")]
     pub target_error: Option<f32>,
+    /// With `--target-error`: hold the target over all views together instead of for each
+    /// view (fewer probes; views not in the set may see several times the target unseen).
+    #[arg(long, requires = "target_error")]
+    pub target_mean: bool,
     /// Where to write the probes (`probes/1` JSON).
     #[arg(long)]
     pub out: PathBuf,
@@ -169,6 +175,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         atlas_texels: args.texels,
         region: parse_region(&args.region)?,
         complete: args.complete,
+        each_view: args.target_error.is_some() && !args.target_mean,
         ..PlaceOptions::new(method)
     };
     let options = PlaceOptions {

@@ -232,6 +232,8 @@ pub struct Atlas<'a> {
     scene: &'a Scene,
     params: AtlasParams,
     samples: Vec<SurfaceSample>,
+    /// The view each sample came from ([`Atlas::from_view_samples`]); empty otherwise.
+    views: Vec<u32>,
     unreachable: usize,
     distance_scale: f32,
 }
@@ -258,6 +260,10 @@ impl<'a> Atlas<'a> {
         let before = self.samples.len();
         let mut keep = seen.iter();
         self.samples.retain(|_| *keep.next().unwrap_or(&false));
+        if !self.views.is_empty() {
+            let mut keep = seen.iter();
+            self.views.retain(|_| *keep.next().unwrap_or(&false));
+        }
         self.unreachable = before - self.samples.len();
         if self.samples.is_empty() {
             return Err(AtlasError::NothingVisible {
@@ -282,6 +288,38 @@ impl<'a> Atlas<'a> {
         samples: Vec<SurfaceSample>,
         reference_points: &[Vec3],
     ) -> Result<Atlas<'a>, AtlasError> {
+        Atlas::from_labelled_samples(scene, params, samples, Vec::new(), reference_points)
+    }
+
+    /// [`Atlas::from_samples`] with the samples of each view apart (for instance
+    /// [`crate::viewers::view_samples_per_view`]): the atlas remembers which view each texel
+    /// came from ([`Atlas::sample_views`]), so that a target can hold for every view
+    /// ([`crate::minimal::CoverParams::each_view`]), not only for all views together.
+    ///
+    /// # Errors
+    /// As [`Atlas::from_samples`].
+    pub fn from_view_samples(
+        scene: &'a Scene,
+        params: &AtlasParams,
+        views: Vec<Vec<SurfaceSample>>,
+        reference_points: &[Vec3],
+    ) -> Result<Atlas<'a>, AtlasError> {
+        let labels: Vec<u32> = views
+            .iter()
+            .enumerate()
+            .flat_map(|(view, samples)| std::iter::repeat_n(view as u32, samples.len()))
+            .collect();
+        let samples = views.into_iter().flatten().collect();
+        Atlas::from_labelled_samples(scene, params, samples, labels, reference_points)
+    }
+
+    fn from_labelled_samples(
+        scene: &'a Scene,
+        params: &AtlasParams,
+        samples: Vec<SurfaceSample>,
+        views: Vec<u32>,
+        reference_points: &[Vec3],
+    ) -> Result<Atlas<'a>, AtlasError> {
         check_params(params)?;
         if reference_points.is_empty() {
             return Err(AtlasError::NoReferencePoints);
@@ -296,10 +334,17 @@ impl<'a> Atlas<'a> {
             scene,
             params: *params,
             samples,
+            views,
             unreachable: 0,
             distance_scale,
         }
         .keep_reachable(reference_points)
+    }
+
+    /// The view each texel came from, in texel order, for an atlas made by
+    /// [`Atlas::from_view_samples`]; empty for any other.
+    pub fn sample_views(&self) -> &[u32] {
+        &self.views
     }
 
     /// Samples the surfaces of `scene` without the reachability filter: every front face
@@ -375,6 +420,7 @@ impl<'a> Atlas<'a> {
             scene,
             params: *params,
             samples,
+            views: Vec::new(),
             unreachable: 0,
             distance_scale,
         })
