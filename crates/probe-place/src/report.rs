@@ -41,6 +41,10 @@ pub struct PlacementReport {
     pub probes_inside_geometry: usize,
     /// Probes outside the free-space test's bounds.
     pub probes_outside_bounds: usize,
+    /// For an atlas of views ([`Atlas::from_view_samples`]): the coverage of the view whose
+    /// points are least seen (what an error-driven set held by each view keeps at its target).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub worst_view_coverage: Option<f64>,
     /// The placement's wall-clock time in seconds, as measured by the caller.
     pub seconds: f64,
     /// [`COVERAGE_RULE`].
@@ -81,6 +85,7 @@ impl PlacementReport {
             },
             probes_inside_geometry: inside,
             probes_outside_bounds: outside,
+            worst_view_coverage: worst_view_coverage(atlas.sample_views(), &best),
             seconds,
             coverage_rule: COVERAGE_RULE.to_owned(),
         }
@@ -90,4 +95,21 @@ impl PlacementReport {
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))
     }
+}
+
+/// The least per-view share of texels seen (`best[t] > 0`), for texels labelled by view;
+/// `None` without labels.
+fn worst_view_coverage(views: &[u32], best: &[f32]) -> Option<f64> {
+    let count = views.iter().max().map(|m| *m as usize + 1)?;
+    let mut seen = vec![0usize; count];
+    let mut total = vec![0usize; count];
+    for (&v, &b) in views.iter().zip(best) {
+        total[v as usize] += 1;
+        seen[v as usize] += usize::from(b > 0.0);
+    }
+    seen.iter()
+        .zip(&total)
+        .filter(|(_, t)| **t > 0)
+        .map(|(s, t)| *s as f64 / *t as f64)
+        .min_by(f64::total_cmp)
 }

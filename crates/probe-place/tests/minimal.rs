@@ -8,8 +8,10 @@ use probe_place::{
     optimize::GibbsParams,
     viewers::view_samples_per_view,
 };
+use probe_scene::Scene;
 use probe_scene::builtin::grid_cell_centers;
-use probe_scene::{Camera, Scene};
+
+mod support;
 
 fn setup(name: &str, texels: usize, cells: f32) -> (Scene, AtlasParams, Vec<Vec3>) {
     let scene = Scene::builtin(name).unwrap();
@@ -213,15 +215,7 @@ fn a_target_held_by_each_view_is_met_in_every_view() {
     // The colonnade seen from four corners: a target over all views together leaves one view
     // far below it; held by each view, it is met in all four.
     let (scene, params, pool) = setup("colonnade", 2000, 14.0);
-    let bounds = scene.bounds();
-    let centre = bounds.center();
-    let cameras: Vec<Camera> = [(0.15, 0.15), (0.85, 0.15), (0.15, 0.85), (0.85, 0.85)]
-        .iter()
-        .map(|&(u, w)| {
-            let eye = bounds.min + bounds.size() * Vec3::new(u, 0.4, w);
-            Camera::look_at(eye, Vec3::new(centre.x, eye.y, centre.z), Vec3::Y, 1.0)
-        })
-        .collect();
+    let cameras = support::corner_cameras(&scene);
     let atlas = Atlas::from_view_samples(
         &scene,
         &params,

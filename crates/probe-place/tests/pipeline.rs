@@ -10,6 +10,8 @@ use probe_place::{
 };
 use probe_scene::Scene;
 
+mod support;
+
 fn options(method: Method) -> PlaceOptions {
     PlaceOptions {
         atlas_texels: 1500,
@@ -290,4 +292,50 @@ mod regions {
             "{solid}"
         );
     }
+}
+
+#[test]
+fn an_error_driven_set_held_by_each_view_reports_its_worst_view() {
+    // The colonnade from four corners (as in tests/minimal.rs), an 80 % target held by each
+    // view and over all views together.
+    let scene = Scene::builtin("colonnade").unwrap();
+    let cameras = support::corner_cameras(&scene);
+    let run = |each_view| {
+        place(
+            &scene,
+            &PlaceOptions {
+                atlas_texels: 2400,
+                viewers: Some(cameras.clone()),
+                coverage: 0.8,
+                each_view,
+                ..PlaceOptions::new(Method::Minimal)
+            },
+            None,
+        )
+        .unwrap()
+    };
+    let each = run(true);
+    let worst = each.report.worst_view_coverage.unwrap();
+    assert!(worst >= 0.8 - 1e-9, "worst view {worst}");
+    assert!(each.report.coverage >= worst);
+    assert_eq!(
+        each.probes.method.parameters().get("each_view"),
+        Some(&serde_json::json!(true))
+    );
+    let together = run(false);
+    assert!(together.report.coverage >= 0.8);
+    assert!(together.report.worst_view_coverage.is_some());
+    assert!(together.probes.len() <= each.probes.len());
+    assert!(
+        together
+            .probes
+            .method
+            .parameters()
+            .get("each_view")
+            .is_none()
+    );
+    // Without views there is no per-view figure, and the JSON report has no such key.
+    let plain = place(&scene, &options(Method::Grid([2, 2, 2])), None).unwrap();
+    assert_eq!(plain.report.worst_view_coverage, None);
+    assert!(!plain.report.to_json().contains("worst_view_coverage"));
 }

@@ -305,6 +305,11 @@ impl Report for PlaceSummary {
             self.placed.atlas_seconds,
             self.out.display(),
         );
+        if let Some(worst) = r.worst_view_coverage
+            && let Some(at) = text.find("best view")
+        {
+            text.insert_str(at, &format!("worst view {:.2} % seen\n", 100.0 * worst));
+        }
         if let Some(png) = &self.top_view {
             text.push_str(&format!("top view   {}\n", png.display()));
         }
