@@ -296,12 +296,14 @@ fn prune_views(
 ///    seen (ties: lower index), until the target is reached, the budget is spent or no
 ///    candidate adds anything. Greedy cover is within a factor `ln(texels) + 1` of the
 ///    fewest probes possible from the same candidates; it is evaluated lazily (a candidate's
-///    gain only shrinks as others are chosen);
+///    gain only shrinks as others are chosen). With [`CoverParams::each_view`] on an atlas of
+///    views, a texel counts only while its view is short of the target, and the target is
+///    reached when every view reaches it;
 /// 3. [`prune_redundant`]'s pass over the chosen probes, keeping the coverage reached (capped
-///    at the target);
-/// 4. if `params.refine` is set and the target is not reached, Gibbs sampling ([`gibbs`])
-///    moves the chosen probes to raise coverage (it keeps the best set met, so coverage does
-///    not drop).
+///    at the target; held by each view, each view's);
+/// 4. if `params.refine` is set and the target (over all texels) is not reached, Gibbs
+///    sampling ([`gibbs`]) moves the chosen probes to raise coverage (it keeps the best set
+///    met, so coverage does not drop).
 ///
 /// With the atlas's own reference points as candidates (e.g. the same
 /// [`free_space_grid`](crate::atlas::free_space_grid)), full coverage is always reachable, since
