@@ -70,7 +70,11 @@ pub struct EvalConfig {
     /// Placements for every scene without its own `placements`: `sdf`, `sdf+gibbs`, `medial`,
     /// `medial+gibbs`, `minimal`, `minimal@N`, `minimal@grids` (one minimal set per grid at
     /// its count), `grid-relocated@N` (the relocated grid of about N probes),
-    /// `grid-relocated:NXxNYxNZ`.
+    /// `grid-relocated:NXxNYxNZ`. Suffixes: `+complete` completes the coverage, `+views`
+    /// learns from the training view set ([`EvalConfig::training_views`]), and `~E` (after
+    /// `+views`) makes an error-driven set whose target E — the share of what the views see
+    /// left unseen — holds for each training view (`~E/mean`: over all of them together), as
+    /// in `minimal+views~0.05`.
     pub placements: Vec<String>,
     /// Fail instead of using the CPU twin when no GPU adapter exists.
     pub require_gpu: bool,
