@@ -473,6 +473,67 @@ mod tests {
         assert!(after >= 0.5 && kept.len() == 1, "{kept:?} {after}");
     }
 
+    /// The groups of `labels` (texel → view) for `target`, as `TexelGroups::of` makes them.
+    fn groups_of(labels: &[u32], target: f32) -> TexelGroups {
+        let count = labels.iter().max().map_or(0, |m| *m as usize + 1);
+        let mut sizes = vec![0usize; count];
+        for &l in labels {
+            sizes[l as usize] += 1;
+        }
+        TexelGroups {
+            of: labels.to_vec(),
+            needed: sizes.iter().map(|&n| needed_texels(target, n)).collect(),
+        }
+    }
+
+    proptest::proptest! {
+        /// Pruning by view keeps, in every view, at least what the target needs (or what all
+        /// the probes saw, if less), and keeps no probe whose removal would keep that.
+        #[test]
+        fn pruning_keeps_every_views_floor_and_nothing_redundant(
+            labels in proptest::collection::vec(0u32..4, 1..40),
+            seen in proptest::collection::vec(proptest::collection::vec(0usize..40, 0..12), 1..10),
+            target in 0.05f32..=1.0,
+        ) {
+            let texels = labels.len();
+            let views: Vec<Vec<u32>> = seen
+                .iter()
+                .map(|s| {
+                    let mut v: Vec<u32> = s.iter().map(|&t| (t % texels) as u32).collect();
+                    v.sort_unstable();
+                    v.dedup();
+                    v
+                })
+                .collect();
+            let groups = groups_of(&labels, target);
+            let all: Vec<usize> = (0..views.len()).collect();
+            let per_view = |members: &[usize]| {
+                let mut hit = vec![false; texels];
+                for &m in members {
+                    for &t in &views[m] {
+                        hit[t as usize] = true;
+                    }
+                }
+                groups.covered(|t| hit[t])
+            };
+            let before = per_view(&all);
+            let floor: Vec<usize> = before.iter().zip(&groups.needed).map(|(c, n)| *c.min(n)).collect();
+            let (kept, _, _) = prune_views(&views, &all, &groups);
+            let after = per_view(&kept);
+            for g in 0..floor.len() {
+                proptest::prop_assert!(after[g] >= floor[g], "view {g}: {} < {}", after[g], floor[g]);
+            }
+            for skip in 0..kept.len() {
+                let fewer: Vec<usize> = kept.iter().enumerate().filter(|(i, _)| *i != skip).map(|(_, m)| *m).collect();
+                let without = per_view(&fewer);
+                proptest::prop_assert!(
+                    (0..floor.len()).any(|g| without[g] < floor[g]),
+                    "probe {} was redundant", kept[skip]
+                );
+            }
+        }
+    }
+
     #[test]
     fn pruning_by_view_keeps_each_views_target() {
         // Texels 0–2 come from view 0, texel 3 from view 1; probe 0 sees {0, 1, 2}, probe 1
@@ -480,10 +541,7 @@ mod tests {
         let views = vec![vec![view(0), view(1), view(2)], vec![view(3)]];
         let pooled = TexelGroups::pooled(4, 0.75);
         assert_eq!(prune_views(&views, &[0, 1], &pooled).0, vec![0]);
-        let by_view = TexelGroups {
-            of: vec![0, 0, 0, 1],
-            needed: vec![needed_texels(0.75, 3), needed_texels(0.75, 1)],
-        };
+        let by_view = groups_of(&[0, 0, 0, 1], 0.75);
         let (kept, _, after) = prune_views(&views, &[0, 1], &by_view);
         assert_eq!((kept, after), (vec![0, 1], 1.0));
         assert!(by_view.reached(&by_view.covered(|_| true)));
