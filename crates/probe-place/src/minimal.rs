@@ -1,7 +1,7 @@
 //! Minimal probe sets ("model no more than a scene needs"): drop the probes whose removal
 //! keeps coverage, and pick as few probes as reach a target coverage or fit a budget.
 
-use crate::atlas::{Atlas, FreeSpace, ProbeView};
+use crate::atlas::{Atlas, FreeSpace, ProbeView, counts_by_view};
 use crate::optimize::{GibbsParams, OptimizeError, Optimized, gibbs};
 use crate::par::*;
 use glam::Vec3;
@@ -204,14 +204,17 @@ impl TexelGroups {
         if !each_view || labels.is_empty() {
             return TexelGroups::pooled(atlas.samples().len(), target);
         }
-        let count = labels.iter().max().map_or(0, |m| *m as usize + 1);
-        let mut sizes = vec![0usize; count];
-        for &l in labels {
-            sizes[l as usize] += 1;
-        }
+        TexelGroups::by_view(labels, target)
+    }
+
+    /// One group per label of `labels` (texel → view).
+    fn by_view(labels: &[u32], target: f32) -> TexelGroups {
         TexelGroups {
             of: labels.to_vec(),
-            needed: sizes.iter().map(|&n| needed_texels(target, n)).collect(),
+            needed: counts_by_view(labels, |_| false)
+                .iter()
+                .map(|&[_, total]| needed_texels(target, total))
+                .collect(),
         }
     }
 
@@ -221,12 +224,12 @@ impl TexelGroups {
 
     /// Per group, how many of its texels `seen` says are seen.
     fn covered(&self, seen: impl Fn(usize) -> bool) -> Vec<usize> {
-        let mut covered = vec![0usize; self.needed.len()];
-        for (t, &g) in self.of.iter().enumerate() {
-            if seen(t) {
-                covered[g as usize] += 1;
-            }
-        }
+        let mut covered: Vec<usize> = counts_by_view(&self.of, seen)
+            .iter()
+            .map(|&[seen, _]| seen)
+            .collect();
+        // No texels at all: the one pooled group saw none.
+        covered.resize(self.needed.len(), 0);
         covered
     }
 
@@ -473,19 +476,6 @@ mod tests {
         assert!(after >= 0.5 && kept.len() == 1, "{kept:?} {after}");
     }
 
-    /// The groups of `labels` (texel → view) for `target`, as `TexelGroups::of` makes them.
-    fn groups_of(labels: &[u32], target: f32) -> TexelGroups {
-        let count = labels.iter().max().map_or(0, |m| *m as usize + 1);
-        let mut sizes = vec![0usize; count];
-        for &l in labels {
-            sizes[l as usize] += 1;
-        }
-        TexelGroups {
-            of: labels.to_vec(),
-            needed: sizes.iter().map(|&n| needed_texels(target, n)).collect(),
-        }
-    }
-
     proptest::proptest! {
         /// Pruning by view keeps, in every view, at least what the target needs (or what all
         /// the probes saw, if less), and keeps no probe whose removal would keep that.
@@ -505,7 +495,7 @@ mod tests {
                     v
                 })
                 .collect();
-            let groups = groups_of(&labels, target);
+            let groups = TexelGroups::by_view(&labels, target);
             let all: Vec<usize> = (0..views.len()).collect();
             let per_view = |members: &[usize]| {
                 let mut hit = vec![false; texels];
@@ -541,7 +531,7 @@ mod tests {
         let views = vec![vec![view(0), view(1), view(2)], vec![view(3)]];
         let pooled = TexelGroups::pooled(4, 0.75);
         assert_eq!(prune_views(&views, &[0, 1], &pooled).0, vec![0]);
-        let by_view = groups_of(&[0, 0, 0, 1], 0.75);
+        let by_view = TexelGroups::by_view(&[0, 0, 0, 1], 0.75);
         let (kept, _, after) = prune_views(&views, &[0, 1], &by_view);
         assert_eq!((kept, after), (vec![0, 1], 1.0));
         assert!(by_view.reached(&by_view.covered(|_| true)));

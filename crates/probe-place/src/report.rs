@@ -1,7 +1,7 @@
 //! A serialisable summary of a placement: what was run, how many probes, how well they cover
 //! the scene and how long it took.
 
-use crate::atlas::{Atlas, FreeSpace};
+use crate::atlas::{Atlas, FreeSpace, counts_by_view};
 use crate::par::*;
 use crate::provenance::PlacementMethod;
 use glam::Vec3;
@@ -100,16 +100,9 @@ impl PlacementReport {
 /// The least per-view share of texels seen (`best[t] > 0`), for texels labelled by view;
 /// `None` without labels.
 fn worst_view_coverage(views: &[u32], best: &[f32]) -> Option<f64> {
-    let count = views.iter().max().map(|m| *m as usize + 1)?;
-    let mut seen = vec![0usize; count];
-    let mut total = vec![0usize; count];
-    for (&v, &b) in views.iter().zip(best) {
-        total[v as usize] += 1;
-        seen[v as usize] += usize::from(b > 0.0);
-    }
-    seen.iter()
-        .zip(&total)
-        .filter(|(_, t)| **t > 0)
-        .map(|(s, t)| *s as f64 / *t as f64)
+    counts_by_view(views, |t| best[t] > 0.0)
+        .iter()
+        .filter(|[_, total]| *total > 0)
+        .map(|&[seen, total]| seen as f64 / total as f64)
         .min_by(f64::total_cmp)
 }

@@ -225,21 +225,8 @@ fn a_target_held_by_each_view_is_met_in_every_view() {
     .unwrap();
     let labels = atlas.sample_views();
     assert_eq!(labels.len(), atlas.samples().len());
-    let per_view = |probes: &[Vec3]| -> Vec<f64> {
-        let seen = atlas.seen_by_any(probes);
-        (0..cameras.len() as u32)
-            .map(|v| {
-                let (mut n, mut s) = (0usize, 0usize);
-                for (t, &l) in labels.iter().enumerate() {
-                    if l == v {
-                        n += 1;
-                        s += usize::from(seen[t]);
-                    }
-                }
-                s as f64 / n as f64
-            })
-            .collect()
-    };
+    let per_view = |probes: &[Vec3]| atlas.view_coverages(probes);
+    assert_eq!(per_view(&[]), vec![0.0; cameras.len()]);
     let free = BackfaceVote::new(&scene);
     let target = |each_view| CoverParams {
         target_coverage: 0.8,

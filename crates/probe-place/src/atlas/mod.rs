@@ -590,6 +590,38 @@ impl<'a> Atlas<'a> {
         let seen = self.seen_by_any(probes);
         seen.iter().filter(|s| **s).count() as f64 / seen.len() as f64
     }
+
+    /// For an atlas of views ([`Atlas::from_view_samples`]): per view, the share of its
+    /// texels that at least one of `probes` sees (a view whose texels were all unreachable
+    /// counts as fully seen). Empty for any other atlas.
+    pub fn view_coverages(&self, probes: &[Vec3]) -> Vec<f64> {
+        if self.views.is_empty() {
+            return Vec::new();
+        }
+        let seen = self.seen_by_any(probes);
+        counts_by_view(&self.views, |t| seen[t])
+            .iter()
+            .map(|&[seen, total]| {
+                if total == 0 {
+                    1.0
+                } else {
+                    seen as f64 / total as f64
+                }
+            })
+            .collect()
+    }
+}
+
+/// Per label (`0..=max`) of `labels` (texel → view), `[texels seen, texels]`, where
+/// `seen(t)` says whether texel `t` is seen.
+pub(crate) fn counts_by_view(labels: &[u32], seen: impl Fn(usize) -> bool) -> Vec<[usize; 2]> {
+    let count = labels.iter().max().map_or(0, |m| *m as usize + 1);
+    let mut counts = vec![[0usize; 2]; count];
+    for (t, &l) in labels.iter().enumerate() {
+        counts[l as usize][0] += usize::from(seen(t));
+        counts[l as usize][1] += 1;
+    }
+    counts
 }
 
 /// The distance limit if there is one, else the diagonal of the scene's bounds.
