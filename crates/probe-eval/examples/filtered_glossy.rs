@@ -9,7 +9,7 @@
 //!
 //! Defaults: `builtin:cornell grid:3x3x3 64 256x256 default docs/glossy cornell 0.1 0.3 0.6`.
 //! The environment may set `GLOSSY_BLEND` (the filtered rays' `TraceOptions::glossy_blend`,
-//! default 4) and `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1).
+//! default: the tracer's) and `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1).
 //! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
 //! once with 6 prefiltered glossy levels to the GPU (lavapipe here) or, without an adapter, the
 //! CPU twin; the regular grid's cage selects probes, hi-Z traces. Per roughness:
@@ -143,7 +143,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Err(_) => Ok(default),
         }
     };
-    let glossy_blend = u32::try_from(number("GLOSSY_BLEND", 4)?)?;
+    let glossy_blend = u32::try_from(number(
+        "GLOSSY_BLEND",
+        u64::from(TraceOptions::default().glossy_blend),
+    )?)?;
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
 
     let scene = Scene::open(&scene_spec)?;

@@ -10,8 +10,8 @@
 //! ```
 //!
 //! `SCENE` is a glTF file or `builtin:NAME`; `PROBES.json` is what `probes place --out`
-//! writes. Each set is rendered with filtered specular rays blended over the default 4 probes
-//! (`filtered-blend-4`), filtered rays read from the answering probe alone
+//! writes. Each set is rendered with filtered specular rays blended over the default 6 probes
+//! (`filtered-blend-6`), filtered rays read from the answering probe alone
 //! (`filtered-one-probe`) and stochastic specular rays (`stochastic`; one per pixel). Writes
 //! to `OUT/`: `reference.png`, and per set and mode `LABEL_MODE.png` (probes | reference |
 //! error map, at the reference's exposure) and `LABEL_MODE_parts.png` (direct, diffuse,
@@ -122,7 +122,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             reference = Some(r);
         }
         let reference = reference.as_ref().expect("rendered above");
-        // Filtered specular blended over the default 4 probes (and again with the diffuse
+        // Filtered specular blended over the default 6 probes (and again with the diffuse
         // part's near-field correction off), read from the answering probe alone, and
         // stochastic: one run, so the ratios between them share the load.
         let blended = FinalOptions::default().glossy_blend;

@@ -90,7 +90,7 @@ pub struct FinalOptions {
     pub specular: SpecularMode,
     /// Probes whose prefiltered reads are blended for each [`SpecularMode::Filtered`] ray
     /// ([`TraceOptions::glossy_blend`]: the nearest probes of the shading point that see the
-    /// hit; 0 reads the answering probe alone). Default 4, as the tracer's: measured on the
+    /// hit; 0 reads the answering probe alone). Default: the tracer's (6), measured on the
     /// Cornell box, Sponza and the Breakfast room against one probe (BENCHMARKS.md, "The
     /// final image").
     pub glossy_blend: u32,

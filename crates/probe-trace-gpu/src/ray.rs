@@ -269,8 +269,8 @@ pub struct TraceOptions {
     /// cannot see the hit (one depth fetch) are left out, and where none can, the answering
     /// probe's read stands. One probe answering each pixel alone shows every change of the
     /// answering probe as a seam (probe-sized patches in rough reflections). Mirror rays
-    /// (`glossy_roughness` 0) are not blended. Default 4 (measured: BENCHMARKS.md,
-    /// "Filtered glossy").
+    /// (`glossy_roughness` 0) are not blended. Default 6 (measured against 4 and 8 at
+    /// roughness 0.1, 0.3 and 0.6: BENCHMARKS.md, "Filtered glossy", "Six probes").
     pub glossy_blend: u32,
 }
 
@@ -284,7 +284,7 @@ impl Default for TraceOptions {
             nearest_candidates: 16,
             back_face_rejection: true,
             glossy_roughness: 0.0,
-            glossy_blend: 4,
+            glossy_blend: 6,
         }
     }
 }
