@@ -238,9 +238,10 @@ fn grid_params(grid: &ProbeGrid, probes: usize) -> Result<GridParams, UploadErro
 /// of the other's plane).
 ///
 /// A texel with a **farther** neighbour shows an occluding edge: beyond it the cone holds the
-/// background, so its plane is trusted only to say "in front" — a crossing of the plane is not
-/// reported as a hit (the ray is handed on). Texels seen more obliquely than [`COS_TRUSTED`]
-/// are flagged the same way.
+/// background, so its plane alone is trusted only to say "in front" — a crossing of the plane
+/// is reported as a hit only if every texel around the crossing's direction shows it too (it
+/// lies among samples of the surface, not beside the edge); otherwise the ray is handed on.
+/// Texels seen more obliquely than [`COS_TRUSTED`] are flagged the same way.
 ///
 /// A sky texel with a surface neighbour (a silhouette against the sky) is always treated as
 /// having a **nearer** edge, as below: otherwise a ray meeting the surface's rim inside the

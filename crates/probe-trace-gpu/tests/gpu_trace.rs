@@ -126,6 +126,53 @@ fn gpu_matches_cpu_for_every_selector_and_method() {
     }
 }
 
+/// Crossings within a texel of a wall's free edge (`support::wall_edge`): the GPU answers them
+/// as the CPU twin does, ray by ray, with the same fetches (the `among_samples` test of a
+/// texel with a farther edge runs on most of these rays).
+#[test]
+fn gpu_matches_cpu_at_a_free_edge() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let case = support::wall_edge();
+    let mut rays = to_trace_rays(&case.rays);
+    // And as many aimed at the wall's middle, so that most rays hit.
+    rays.extend(case.rays.iter().map(|ray| {
+        let target = ray.origin + ray.direction * (ray.origin.x / -ray.direction.x);
+        let middle = Vec3::new(0.0, target.y, target.z - 1.0);
+        TraceRay::new(ray.origin, middle - ray.origin)
+    }));
+    let selection = ProbeSelection::Grid(case.grid);
+    let gpu_field = gpu
+        .upload(&case.bake.field(), &selection, &FieldOptions::default())
+        .unwrap();
+    let mut cpu = CpuTracer::new();
+    let cpu_field = cpu
+        .upload(&case.bake.field(), &selection, &FieldOptions::default())
+        .unwrap();
+    for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
+        let options = TraceOptions {
+            method,
+            ..TraceOptions::default()
+        };
+        let g = gpu.trace(&gpu_field, &rays, &options).unwrap();
+        let c = cpu.trace(&cpu_field, &rays, &options).unwrap();
+        assert_agree(
+            &format!("wall edge {}", method.name()),
+            &g.results,
+            &c.results,
+        );
+        let same_fetches = g
+            .results
+            .iter()
+            .zip(&c.results)
+            .filter(|(g, c)| g.texel_fetches == c.texel_fetches)
+            .count();
+        assert!(
+            same_fetches as f64 >= 0.999 * rays.len() as f64,
+            "{same_fetches}"
+        );
+    }
+}
+
 /// Buffers are made once and grow only when needed: calls of varying sizes (including more
 /// rays than the first call) keep matching the CPU, and an empty call works.
 #[test]

@@ -447,9 +447,10 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     /// behind it by more than the thickness is hidden, staying in front passes, moving out of
     /// the thickness layer passes (a ray leaving the surface it starts on) if it lies within
     /// the thickness measured along the normal (deeper it is hidden), and crossing into it is
-    /// a hit (unless the ray starts behind it), unless the texel has a farther edge (the
-    /// crossing may lie beside the edge: UNKNOWN) or the surface faces away from the ray
-    /// (back-face rejection, UNKNOWN).
+    /// a hit (unless the ray starts behind it), unless the surface faces away from the ray
+    /// (back-face rejection, UNKNOWN) or the texel has a farther edge and the crossing does
+    /// not lie among samples of its surface (`among_samples`: it may lie beside the edge,
+    /// UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
         let (outcome, kind) = self.fine_test_kind(cell, ta, tb);
@@ -515,13 +516,24 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);
         }
-        if !self.relaxed
-            && (farther_edge
-                || (self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0))
+        if !self.relaxed && self.params.back_face_rejection != 0 && self.direction.dot(normal) > 0.0
         {
             return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         let t = if sa <= 0.0 { ta } else { (ta - sa / k).min(tb) };
+        // A texel with a farther edge: the crossing may lie beside the edge, unless the
+        // texels around it all show it (it lies among samples of the surface).
+        if !self.relaxed
+            && farther_edge
+            && !super::among_samples(
+                self.field,
+                self.probe,
+                self.origin + self.direction * t,
+                &mut self.fetches,
+            )
+        {
+            return (Outcome::unknown(ta), FetchKind::FineUnknown);
+        }
         (
             Outcome {
                 code: HIT,

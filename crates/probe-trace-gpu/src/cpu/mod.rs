@@ -368,6 +368,65 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> UVec2 {
     UVec2::new(x as u32, y as u32)
 }
 
+/// The four texels around the direction of `v` (relative to a probe of an `n×n` map) with
+/// their bilinear weights, through the map's wrap; `None` for `v` at the probe.
+fn bilinear_texels(n: u32, v: Vec3) -> Option<[(UVec2, f32); 4]> {
+    let r = v.length();
+    if r <= 0.0 {
+        return None;
+    }
+    let o = probe_octa::encode(v / r).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
+    let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
+    let base = f.floor();
+    let frac = f - base;
+    Some(std::array::from_fn(|k| {
+        let (a, b) = ((k & 1) as i32, (k >> 1) as i32);
+        let w =
+            if a == 1 { frac.x } else { 1.0 - frac.x } * if b == 1 { frac.y } else { 1.0 - frac.y };
+        (wrap_texel(base.x as i32 + a, base.y as i32 + b, n), w)
+    }))
+}
+
+/// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
+/// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
+fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
+    let n = field.resolution;
+    let g = field.geometry[padded_index(n, probe, texel.x, texel.y)];
+    let distance = f32::from_bits(g[0] & !crate::packed::SIGN_BIT);
+    if sky {
+        return distance >= field.sky_distance;
+    }
+    if distance >= field.sky_distance {
+        return false;
+    }
+    let center = probe_octa::decode(crate::surface::texel_center(n, texel.x, texel.y));
+    let normal = crate::surface::unpack_normal(g[1]);
+    let surface = crate::surface::texel_surface(n, center, distance, normal, field.thickness_scale);
+    (v - center * distance).dot(surface.visible_normal).abs() <= surface.plane_thickness
+}
+
+/// Whether the surface point `v` (relative to `probe`) lies among samples of its surface:
+/// every texel around its direction with a bilinear weight shows it ([`texel_shows`]; one
+/// fetch each, stopping at the first that does not). A crossing in a texel with a farther
+/// edge is then on the surface, not beside the edge: the surface is known at the texel
+/// centres around it, and the tracer trusts a plane between samples that agree, as it does
+/// inside every texel (`gpu/trace.wgsl`'s `among_samples` step for step).
+pub(crate) fn among_samples(field: &PackedField, probe: u32, v: Vec3, fetches: &mut u32) -> bool {
+    let Some(texels) = bilinear_texels(field.resolution, v) else {
+        return false;
+    };
+    for (texel, w) in texels {
+        if w <= 0.0 {
+            continue;
+        }
+        *fetches += 1;
+        if !texel_shows(field, probe, texel, v, false) {
+            return false;
+        }
+    }
+    true
+}
+
 /// The radiance `probe` holds towards the point `v` (relative to the probe) or, with `sky`,
 /// in direction `v`: the bilinear blend of the four texels around that direction that show
 /// it (for a surface point, the point within the thickness of the texel's plane; for the
@@ -383,43 +442,14 @@ fn filtered_radiance(
     cell: UVec2,
     fetches: &mut u32,
 ) -> [f32; 3] {
-    let n = field.resolution;
-    let r = v.length();
-    if r > 0.0 {
-        let o = probe_octa::encode(v / r).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
-        let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
-        let base = f.floor();
-        let frac = f - base;
+    if let Some(texels) = bilinear_texels(field.resolution, v) {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-        for k in 0..4u32 {
-            let (a, b) = ((k & 1) as i32, (k >> 1) as i32);
-            let w = if a == 1 { frac.x } else { 1.0 - frac.x }
-                * if b == 1 { frac.y } else { 1.0 - frac.y };
+        for (texel, w) in texels {
             if w <= 0.0 {
                 continue;
             }
-            let texel = wrap_texel(base.x as i32 + a, base.y as i32 + b, n);
             *fetches += 1;
-            let g = field.geometry[padded_index(n, probe, texel.x, texel.y)];
-            let distance = f32::from_bits(g[0] & !crate::packed::SIGN_BIT);
-            let shows = if sky {
-                distance >= field.sky_distance
-            } else if distance < field.sky_distance {
-                // The point on the texel's surface: within its plane's thickness.
-                let center = probe_octa::decode(crate::surface::texel_center(n, texel.x, texel.y));
-                let normal = crate::surface::unpack_normal(g[1]);
-                let surface = crate::surface::texel_surface(
-                    n,
-                    center,
-                    distance,
-                    normal,
-                    field.thickness_scale,
-                );
-                (v - center * distance).dot(surface.visible_normal).abs() <= surface.plane_thickness
-            } else {
-                false
-            };
-            if shows {
+            if texel_shows(field, probe, texel, v, sky) {
                 *fetches += 1;
                 sum += w * Vec3::from(radiance(field, probe, texel));
                 weight += w;

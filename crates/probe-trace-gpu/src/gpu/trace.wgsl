@@ -499,12 +499,17 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         }
         return outcome_continue();
     }
-    if (farther_edge || (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0)) {
+    if (params.back_face_rejection != 0u && dot(ray_d, normal) > 0.0) {
         return outcome_unknown(ta);
     }
     var t = ta;
     if (sa > 0.0) {
         t = min(ta - sa / k, tb);
+    }
+    // A texel with a farther edge: the crossing may lie beside the edge, unless the texels
+    // around it all show it.
+    if (farther_edge && !among_samples(cur_probe, ray_o + ray_d * t)) {
+        return outcome_unknown(ta);
     }
     return Outcome(HIT, t, cell, texel.y);
 }
@@ -927,48 +932,87 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> vec2<u32> {
     return vec2<u32>(u32(x), u32(y));
 }
 
+// Whether `texel` of `probe` shows point v (relative to the probe: its surface's plane holds v
+// within the plane's thickness) or, with `sky`, is sky (src/cpu/mod.rs texel_shows; one fetch,
+// counted by the caller).
+fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>, sky: bool) -> bool {
+    let n = params.resolution;
+    let g = geometry[padded_index(n, probe, texel)];
+    let distance = bitcast<f32>(g.x & ~SIGN_BIT);
+    if (sky) {
+        return distance >= params.sky_distance;
+    }
+    if (distance >= params.sky_distance) {
+        return false;
+    }
+    let center = octa_decode(texel_center(n, texel));
+    let surface = texel_surface(n, center, distance, unpack_normal(g.y), params.thickness_scale);
+    return abs(dot(v - center * distance, surface.visible_normal)) <= surface.plane_thickness;
+}
+
+// The continuous texel coordinate of direction v (relative to a probe) in the n×n map: the
+// four texels around it are floor(f) + (0|1, 0|1).
+fn bilinear_coordinate(v: vec3<f32>, n: u32) -> vec2<f32> {
+    let o = clamp(octa_encode(v / length(v)), vec2<f32>(-1.0), vec2<f32>(1.0));
+    return (o + vec2<f32>(1.0)) * (0.5 * f32(n)) - vec2<f32>(0.5);
+}
+
+// Bilinear weight of texel k (0..4: x offset k & 1, y offset k >> 1) at fractional part frac.
+fn bilinear_weight(k: u32, frac: vec2<f32>) -> f32 {
+    var wx = 1.0 - frac.x;
+    if ((k & 1u) == 1u) {
+        wx = frac.x;
+    }
+    var wy = 1.0 - frac.y;
+    if ((k >> 1u) == 1u) {
+        wy = frac.y;
+    }
+    return wx * wy;
+}
+
+// Whether the surface point v (relative to `probe`) lies among samples of its surface: every
+// texel around its direction with a bilinear weight shows it, one fetch each, stopping at the
+// first that does not (src/cpu/mod.rs among_samples).
+fn among_samples(probe: u32, v: vec3<f32>) -> bool {
+    let n = params.resolution;
+    if (length(v) <= 0.0) {
+        return false;
+    }
+    let f = bilinear_coordinate(v, n);
+    let base = floor(f);
+    let frac = f - base;
+    for (var k = 0u; k < 4u; k++) {
+        if (bilinear_weight(k, frac) <= 0.0) {
+            continue;
+        }
+        let texel = wrap_texel(i32(base.x) + i32(k & 1u), i32(base.y) + i32(k >> 1u), n);
+        fetches += 1u;
+        if (!texel_shows(probe, texel, v, false)) {
+            return false;
+        }
+    }
+    return true;
+}
+
 // The depth-aware bilinear radiance of `probe` towards point v (relative to it) or, with
 // `sky`, in direction v (src/cpu/mod.rs filtered_radiance); `cell` alone where no texel
 // around shows it.
 fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> vec3<f32> {
     let n = params.resolution;
-    let r = length(v);
-    if (r > 0.0) {
-        let o = clamp(octa_encode(v / r), vec2<f32>(-1.0), vec2<f32>(1.0));
-        let f = (o + vec2<f32>(1.0)) * (0.5 * f32(n)) - vec2<f32>(0.5);
+    if (length(v) > 0.0) {
+        let f = bilinear_coordinate(v, n);
         let base = floor(f);
         let frac = f - base;
         var sum = vec3<f32>(0.0);
         var weight = 0.0;
         for (var k = 0u; k < 4u; k++) {
-            let a = i32(k & 1u);
-            let b = i32(k >> 1u);
-            var wx = 1.0 - frac.x;
-            if (a == 1) {
-                wx = frac.x;
-            }
-            var wy = 1.0 - frac.y;
-            if (b == 1) {
-                wy = frac.y;
-            }
-            let w = wx * wy;
+            let w = bilinear_weight(k, frac);
             if (w <= 0.0) {
                 continue;
             }
-            let texel = wrap_texel(i32(base.x) + a, i32(base.y) + b, n);
+            let texel = wrap_texel(i32(base.x) + i32(k & 1u), i32(base.y) + i32(k >> 1u), n);
             fetches += 1u;
-            let g = geometry[padded_index(n, probe, texel)];
-            let distance = bitcast<f32>(g.x & ~SIGN_BIT);
-            var shows = distance >= params.sky_distance;
-            if (!sky) {
-                shows = false;
-                if (distance < params.sky_distance) {
-                    let center = octa_decode(texel_center(n, texel));
-                    let surface = texel_surface(n, center, distance, unpack_normal(g.y), params.thickness_scale);
-                    shows = abs(dot(v - center * distance, surface.visible_normal)) <= surface.plane_thickness;
-                }
-            }
-            if (shows) {
+            if (texel_shows(probe, texel, v, sky)) {
                 fetches += 1u;
                 sum += w * radiance_at(probe, texel);
                 weight += w;

@@ -589,3 +589,56 @@ pub fn gpu_tracer() -> Option<GpuTracer> {
         }
     }
 }
+
+/// A 2 m square wall in the plane x = 0 facing +x, ending at z = 2 with nothing beyond (its
+/// free edge against the sky), eight grid probes 0.8–1.2 m in front of it baked at 64² (texels
+/// about 7 cm on the wall), and 2,000 rays aimed at the plane at (0, y, 2 − δ) obliquely
+/// towards the edge, δ uniform in ±10 cm (`offsets`): δ > 0 meets the wall, δ < 0 passes
+/// beside its edge into the sky.
+pub struct WallEdge {
+    pub scene: Scene,
+    pub grid: probe_index::ProbeGrid,
+    pub bake: Bake,
+    pub rays: Vec<Ray>,
+    pub offsets: Vec<f32>,
+}
+
+/// The [`WallEdge`] case.
+pub fn wall_edge() -> WallEdge {
+    let corner = |y: f32, z: f32| Vec3::new(0.0, y, z);
+    let triangle = |positions: [Vec3; 3]| probe_scene::Triangle {
+        positions,
+        normals: [Vec3::X; 3],
+        uvs: [Vec2::ZERO; 3],
+        material: 0,
+    };
+    let triangles = vec![
+        triangle([corner(0.0, 0.0), corner(2.0, 0.0), corner(2.0, 2.0)]),
+        triangle([corner(0.0, 0.0), corner(2.0, 2.0), corner(0.0, 2.0)]),
+    ];
+    let materials = vec![probe_scene::Material::diffuse(
+        "wall",
+        Vec3::new(0.8, 0.3, 0.2),
+    )];
+    let scene = Scene::from_triangles("edge", triangles, materials, Vec::new(), Vec::new())
+        .expect("a valid wall");
+    let grid = probe_index::ProbeGrid::new(Vec3::splat(0.8), Vec3::splat(0.4), [2, 2, 2])
+        .expect("a valid grid");
+    let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &albedo_shade(&scene));
+    let mut lcg = probe_testdata::Lcg(5);
+    let (mut rays, mut offsets) = (Vec::new(), Vec::new());
+    for _ in 0..2000 {
+        let delta = 0.2 * lcg.uniform() - 0.1;
+        let target = Vec3::new(0.0, 0.5 + lcg.uniform(), 2.0 - delta);
+        let origin = target + Vec3::new(0.5 + 0.3 * lcg.uniform(), 0.0, -0.4);
+        rays.push(Ray::new(origin, target - origin));
+        offsets.push(delta);
+    }
+    WallEdge {
+        scene,
+        grid,
+        bake,
+        rays,
+        offsets,
+    }
+}
