@@ -11,9 +11,9 @@ use probe_index::{
 };
 use probe_scene::Scene;
 use probe_trace_gpu::{
-    CpuTracer, DiffuseOptions, FieldOptions, GpuContext, GpuTracer, Interpolation, ProbeSelection,
-    RayResult, RayStatus, ShadingPoint, SurfaceQuery, TraceError, TraceMethod, TraceOptions,
-    TraceRay, TraceSummary, Tracer,
+    CpuTracer, DiffuseOptions, FieldOptions, GpuContext, GpuTracer, Interpolation, LightField,
+    ProbeSelection, RayResult, RayStatus, ShadingPoint, SurfaceQuery, TraceError, TraceMethod,
+    TraceOptions, TraceOutput, TraceRay, TraceSummary, Tracer,
 };
 use support::{
     LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
@@ -60,6 +60,50 @@ fn assert_agree(label: &str, gpu: &[RayResult], cpu: &[RayResult]) {
     );
 }
 
+/// Uploads `field` with `selection` to the GPU and the CPU twin, traces `rays` with hi-Z and
+/// two-level on each and checks every pair with [`assert_agree`] (labelled `label` and the
+/// method); also requires equal fetch counts for ≥ 99.9 % of the rays. Returns the pairs.
+fn assert_methods_agree(
+    gpu: &mut GpuTracer,
+    field: &LightField<'_>,
+    selection: &ProbeSelection<'_>,
+    rays: &[TraceRay],
+    label: &str,
+) -> Vec<(TraceOutput, TraceOutput)> {
+    let gpu_field = gpu
+        .upload(field, selection, &FieldOptions::default())
+        .unwrap();
+    let mut cpu = CpuTracer::new();
+    let cpu_field = cpu
+        .upload(field, selection, &FieldOptions::default())
+        .unwrap();
+    [TraceMethod::HiZ, TraceMethod::TwoLevel]
+        .into_iter()
+        .map(|method| {
+            let options = TraceOptions {
+                method,
+                ..TraceOptions::default()
+            };
+            let g = gpu.trace(&gpu_field, rays, &options).unwrap();
+            let c = cpu.trace(&cpu_field, rays, &options).unwrap();
+            let label = format!("{label} {}", method.name());
+            assert_agree(&label, &g.results, &c.results);
+            let same_fetches = g
+                .results
+                .iter()
+                .zip(&c.results)
+                .filter(|(g, c)| g.texel_fetches == c.texel_fetches)
+                .count();
+            assert!(
+                same_fetches as f64 >= 0.999 * rays.len() as f64,
+                "{label}: equal fetch counts for {same_fetches} of {} rays",
+                rays.len()
+            );
+            (g, c)
+        })
+        .collect()
+}
+
 fn cornell_grid() -> ProbeGrid {
     ProbeGrid::new(
         Vec3::new(0.07, 0.07, 0.07),
@@ -92,7 +136,6 @@ fn gpu_matches_cpu_for_every_selector_and_method() {
     .unwrap();
     let mut rays = to_trace_rays(&reflection_rays(&scene, &camera_rays(&scene, 48, 36)));
     rays.extend(to_trace_rays(&camera_rays(&scene, 24, 18)));
-    let mut cpu = CpuTracer::new();
     for selection in [
         ProbeSelection::Grid(grid),
         ProbeSelection::SparseVoxelOctree(&svo),
@@ -101,21 +144,9 @@ fn gpu_matches_cpu_for_every_selector_and_method() {
             neighbours: &neighbours,
         },
     ] {
-        let gpu_field = gpu
-            .upload(&bake.field(), &selection, &FieldOptions::default())
-            .unwrap();
-        let cpu_field = cpu
-            .upload(&bake.field(), &selection, &FieldOptions::default())
-            .unwrap();
-        for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
-            let options = TraceOptions {
-                method,
-                ..TraceOptions::default()
-            };
-            let g = gpu.trace(&gpu_field, &rays, &options).unwrap();
-            let c = cpu.trace(&cpu_field, &rays, &options).unwrap();
-            let label = format!("{} {}", selection.name(), method.name());
-            assert_agree(&label, &g.results, &c.results);
+        for (g, _) in
+            assert_methods_agree(&mut gpu, &bake.field(), &selection, &rays, selection.name())
+        {
             eprintln!(
                 "  {:?} wall {:?} gpu {:?}",
                 TraceSummary::of(&g.results),
@@ -141,36 +172,7 @@ fn gpu_matches_cpu_at_a_free_edge() {
         TraceRay::new(ray.origin, middle - ray.origin)
     }));
     let selection = ProbeSelection::Grid(case.grid);
-    let gpu_field = gpu
-        .upload(&case.bake.field(), &selection, &FieldOptions::default())
-        .unwrap();
-    let mut cpu = CpuTracer::new();
-    let cpu_field = cpu
-        .upload(&case.bake.field(), &selection, &FieldOptions::default())
-        .unwrap();
-    for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
-        let options = TraceOptions {
-            method,
-            ..TraceOptions::default()
-        };
-        let g = gpu.trace(&gpu_field, &rays, &options).unwrap();
-        let c = cpu.trace(&cpu_field, &rays, &options).unwrap();
-        assert_agree(
-            &format!("wall edge {}", method.name()),
-            &g.results,
-            &c.results,
-        );
-        let same_fetches = g
-            .results
-            .iter()
-            .zip(&c.results)
-            .filter(|(g, c)| g.texel_fetches == c.texel_fetches)
-            .count();
-        assert!(
-            same_fetches as f64 >= 0.999 * rays.len() as f64,
-            "{same_fetches}"
-        );
-    }
+    assert_methods_agree(&mut gpu, &case.bake.field(), &selection, &rays, "wall edge");
 }
 
 /// Buffers are made once and grow only when needed: calls of varying sizes (including more
