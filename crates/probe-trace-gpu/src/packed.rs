@@ -211,6 +211,14 @@ const NEIGHBOURS: [(i32, i32); 8] = [
 /// candidate); the texel is flagged like a farther edge.
 pub(crate) const COS_TRUSTED: f32 = 0.25;
 
+/// A crossing in a farther-edge texel is a hit when the texels around it all show it
+/// (`cpu::among_samples`), unless the texel is seen at a cosine below this (about 87°): such a
+/// texel's cone runs along the surface and its radiance mixes whatever lies along it (on the
+/// Cornell box, the ceiling light seen along the ceiling by a probe 1.4 cm below it, read as
+/// the ceiling's corner 0.6 m away). Chosen by measurement against 0, 0.1 and
+/// [`COS_TRUSTED`]: BENCHMARKS.md, "Crossings beside an edge".
+pub(crate) const COS_AMONG_SAMPLES: f32 = 0.05;
+
 /// The sign bit of an `f32`, used as a flag on values that are never negative.
 pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
 

@@ -5,7 +5,9 @@
 use glam::{UVec2, Vec2, Vec3};
 
 use super::profile::{FetchKind, FetchLog};
-use crate::packed::{METHOD_HIZ, PackedField, SIGN_BIT, TraceParams, padded_index};
+use crate::packed::{
+    COS_AMONG_SAMPLES, METHOD_HIZ, PackedField, SIGN_BIT, TraceParams, padded_index,
+};
 use crate::surface::{texel_center, texel_surface, unpack_normal};
 
 /// Outcome codes shared with the WGSL.
@@ -449,8 +451,8 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     /// the thickness measured along the normal (deeper it is hidden), and crossing into it is
     /// a hit (unless the ray starts behind it), unless the surface faces away from the ray
     /// (back-face rejection, UNKNOWN) or the texel has a farther edge and the crossing does
-    /// not lie among samples of its surface (`among_samples`: it may lie beside the edge,
-    /// UNKNOWN).
+    /// not lie among samples of its surface (`among_samples`: it may lie beside the edge) or
+    /// the texel is seen more obliquely than [`COS_AMONG_SAMPLES`] (UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
         let (outcome, kind) = self.fine_test_kind(cell, ta, tb);
@@ -522,15 +524,17 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         }
         let t = if sa <= 0.0 { ta } else { (ta - sa / k).min(tb) };
         // A texel with a farther edge: the crossing may lie beside the edge, unless the
-        // texels around it all show it (it lies among samples of the surface).
+        // texels around it all show it (it lies among samples of the surface) and the texel
+        // is not seen almost edge-on (its radiance then mixes whatever lies along the surface).
         if !self.relaxed
             && farther_edge
-            && !super::among_samples(
-                self.field,
-                self.probe,
-                self.origin + self.direction * t,
-                &mut self.fetches,
-            )
+            && (surface.cos_incidence < COS_AMONG_SAMPLES
+                || !super::among_samples(
+                    self.field,
+                    self.probe,
+                    self.origin + self.direction * t,
+                    &mut self.fetches,
+                ))
         {
             return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }

@@ -12,6 +12,8 @@ const SELECT_SVO: u32 = 1u;
 const SVO_LEAF_BIT: u32 = 0x80000000u;
 const SVO_PACKED_BIT: u32 = 0x40000000u;
 const NO_EXIT: f32 = 4.0;
+// src/packed.rs COS_AMONG_SAMPLES.
+const COS_AMONG_SAMPLES: f32 = 0.05;
 const SIGN_BIT: u32 = 0x80000000u;
 
 // probe_index::SvoHeader (48 bytes).
@@ -507,8 +509,12 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         t = min(ta - sa / k, tb);
     }
     // A texel with a farther edge: the crossing may lie beside the edge, unless the texels
-    // around it all show it.
-    if (farther_edge && !among_samples(cur_probe, ray_o + ray_d * t)) {
+    // around it all show it and the texel is not seen almost edge-on (src/cpu/march.rs).
+    var cos_view = abs(dot(normal, center));
+    if (all(normal == vec3<f32>(0.0))) {
+        cos_view = 1.0;
+    }
+    if (farther_edge && (cos_view < COS_AMONG_SAMPLES || !among_samples(cur_probe, ray_o + ray_d * t))) {
         return outcome_unknown(ta);
     }
     return Outcome(HIT, t, cell, texel.y);
