@@ -79,6 +79,8 @@ struct TexelSurface {
     thickness: f32,
     plane_thickness: f32,
     visible_normal: vec3<f32>,
+    // |n·d| of the stored normal and the texel direction (1 for an unknown normal).
+    cos_incidence: f32,
 }
 
 // src/surface.rs texel_surface.
@@ -102,7 +104,7 @@ fn texel_surface(n: u32, center: vec3<f32>, distance: f32, normal: vec3<f32>, th
     let far_extent = distance * (cos_g / (cos_g * cos_b - sin_g * sin_b) - 1.0);
     let near_extent = distance * (1.0 - cos_g / (cos_g * cos_b + sin_g * sin_b));
     let thickness = thickness_scale * distance * beta / cos_g;
-    return TexelSurface(distance - near_extent - thickness, distance + far_extent + thickness, thickness, thickness * cos_g, visible);
+    return TexelSurface(distance - near_extent - thickness, distance + far_extent + thickness, thickness, thickness * cos_g, visible, abs(c));
 }
 
 // Nearest probe to p in the k-d tree at words[start..] (count nodes of 4 words: position bits,

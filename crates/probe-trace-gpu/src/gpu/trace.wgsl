@@ -510,11 +510,7 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     }
     // A texel with a farther edge: the crossing may lie beside the edge, unless the texels
     // around it all show it and the texel is not seen almost edge-on (src/cpu/march.rs).
-    var cos_view = abs(dot(normal, center));
-    if (all(normal == vec3<f32>(0.0))) {
-        cos_view = 1.0;
-    }
-    if (farther_edge && (cos_view < COS_AMONG_SAMPLES || !among_samples(cur_probe, ray_o + ray_d * t))) {
+    if (farther_edge && (surface.cos_incidence < COS_AMONG_SAMPLES || !among_samples(cur_probe, ray_o + ray_d * t))) {
         return outcome_unknown(ta);
     }
     return Outcome(HIT, t, cell, texel.y);
