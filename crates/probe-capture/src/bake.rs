@@ -746,6 +746,7 @@ pub struct ProbeBake {
     pub(crate) scene_name: String,
     pub(crate) scene_source: Option<String>,
     pub(crate) scene_content_hash: [u8; 32],
+    pub(crate) scene_bounds: Option<[Vec3; 2]>,
     pub(crate) settings: BakeSettings,
     pub(crate) environment: Environment,
     pub(crate) moments_max_distance: f32,
@@ -810,6 +811,13 @@ impl ProbeBake {
     /// [`Scene::content_hash`] of the scene the bake was made from.
     pub fn scene_content_hash(&self) -> [u8; 32] {
         self.scene_content_hash
+    }
+
+    /// The box holding every triangle of the scene the bake was made from ([`Scene::bounds`]:
+    /// min and max corners): nothing lies beyond it, so a tracer may end a ray that leaves it
+    /// verified empty as a miss. `None` for bakes saved before it was recorded.
+    pub fn scene_bounds(&self) -> Option<[Vec3; 2]> {
+        self.scene_bounds
     }
 
     /// The distance at which distances were clamped before filtering moments.
@@ -1101,6 +1109,7 @@ pub(crate) fn bake_probes(
             source => Some(source.to_string()),
         },
         scene_content_hash: scene.content_hash(),
+        scene_bounds: Some([scene.bounds().min, scene.bounds().max]),
         settings: settings.clone(),
         environment,
         moments_max_distance,

@@ -323,6 +323,10 @@ struct ManifestScene {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     source: Option<String>,
     content_hash: String,
+    /// The scene's bounding box (min and max corners); absent in bakes saved before it was
+    /// recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    bounds: Option<[[f32; 3]; 2]>,
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -694,6 +698,7 @@ impl ProbeBake {
                 name: self.scene_name.clone(),
                 source: self.scene_source.clone(),
                 content_hash: hex(&self.scene_content_hash),
+                bounds: self.scene_bounds.map(|b| b.map(|c| c.to_array())),
             },
             shard: None,
             units: units(),
@@ -964,6 +969,7 @@ impl ProbeBake {
             scene_name: manifest.scene.name,
             scene_source: manifest.scene.source,
             scene_content_hash: checked.scene_hash,
+            scene_bounds: manifest.scene.bounds.map(|b| b.map(Vec3::from)),
             settings: checked.settings,
             environment: Environment::from(&manifest.environment),
             moments_max_distance: manifest.moments_max_distance,

@@ -646,6 +646,7 @@ fn append(whole: &mut ProbeBake, part: ProbeBake) {
         scene_name: _,
         scene_source: _,
         scene_content_hash: _,
+        scene_bounds: _,
         settings: _,
         environment: _,
         moments_max_distance: _,

@@ -454,6 +454,8 @@ fn save_and_load_round_trip_exactly() {
     }
     let loaded = ProbeBake::load(&path, Some(&scene)).unwrap();
     assert_eq!(loaded, probes);
+    let bounds = scene.bounds();
+    assert_eq!(loaded.scene_bounds(), Some([bounds.min, bounds.max]));
     let loaded = ProbeBake::load(&path, None).unwrap();
     assert_eq!(loaded, probes);
     // Saving is deterministic too: a second save gives the same files, byte for byte.

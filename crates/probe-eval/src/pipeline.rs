@@ -324,6 +324,7 @@ pub fn light_field(baked: &ProbeBake) -> LightField<'_> {
         radiance: baked.radiance(),
         distance_range: None,
         sky_distance: MISS_DISTANCE * 0.5,
+        geometry_bounds: baked.scene_bounds(),
     }
 }
 

@@ -111,6 +111,7 @@ impl RoomProbes {
             radiance: &self.radiance,
             distance_range: None,
             sky_distance: 1000.0,
+            geometry_bounds: None,
         }
     }
 

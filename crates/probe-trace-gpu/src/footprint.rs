@@ -310,6 +310,7 @@ mod tests {
             radiance: &radiance,
             distance_range: None,
             sky_distance: 100.0,
+            geometry_bounds: None,
         };
         let packed = PackedField::new(&field, &FieldOptions::default()).unwrap();
         // Prefiltered glossy levels (asked for more than a 16² map has: clamped to 3).

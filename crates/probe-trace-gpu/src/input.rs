@@ -38,6 +38,14 @@ pub struct LightField<'a> {
     /// Radial distances at or above this mean "no geometry" (finite, > 0). A ray that gets
     /// this far from a probe in front of everything it saw is a MISS.
     pub sky_distance: f32,
+    /// Optional: a box holding every surface of the scene, `[min, max]` corners (for a
+    /// `probe_scene::Scene`, its `bounds()`; `ProbeBake::scene_bounds` records it). Nothing
+    /// lies beyond it, so a ray verified empty up to where it leaves the box is a MISS,
+    /// whichever probe verified it: rays that leave through an open roof or window end there
+    /// instead of needing a probe that sees them reach its sky. Its radiance is the sky along
+    /// the ray, read from a probe whose texel in that direction sees the sky. `None`: a ray is
+    /// a MISS only when a probe sees it reach the sky (or its `t_max`).
+    pub geometry_bounds: Option<[Vec3; 2]>,
 }
 
 /// How the uploaded light field is prepared.

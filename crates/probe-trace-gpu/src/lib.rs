@@ -4,8 +4,8 @@
 //! A light-field probe stores, per octahedral texel, the radial distance, normal and radiance
 //! of the first surface its centre sees (seed 003 §4; McGuire et al. 2017). Given many probes,
 //! this crate answers ray queries from them: for each ray, *HIT* (where, which normal, what
-//! radiance), *MISS* (the ray leaves everything the probes saw) or *UNKNOWN* (no probe tried
-//! could see the whole ray). It also shades points diffusely from low-resolution irradiance
+//! radiance), *MISS* (the ray leaves everything the probes saw, or, given the scene's bounds,
+//! leaves those) or *UNKNOWN* (no probe tried could see the whole ray). It also shades points diffusely from low-resolution irradiance
 //! probes with Chebyshev visibility (seed 001 §4.3.6–4.3.7).
 //!
 //! - [`LightField`] / [`IrradianceField`]: the probe data as plain slices (padded octahedral
@@ -79,6 +79,7 @@
 //!     radiance: &radiance,
 //!     distance_range: None,
 //!     sky_distance: 1000.0,
+//!     geometry_bounds: None,
 //! };
 //!
 //! // A ray from inside the room towards the +x wall.

@@ -72,7 +72,13 @@ pub(crate) struct PackedField {
     pub glossy_levels: u32,
     /// Start texel of each glossy level in `radiance` (level 0 unused).
     pub glossy_offsets: [u32; MAX_GLOSSY_LEVELS + 1],
+    /// `LightField::geometry_bounds`, widened by [`BOUNDS_MARGIN`]: `(min, max)`.
+    pub bounds: Option<(Vec3, Vec3)>,
 }
+
+/// How far the geometry bounds are widened on every side, relative to their diagonal (plus
+/// a millimetre): a surface lying in the box's face is met before the box is left.
+pub(crate) const BOUNDS_MARGIN: f32 = 1e-4;
 
 /// Most prefiltered glossy levels a field holds (`FieldOptions::glossy_levels` is clamped).
 pub(crate) const MAX_GLOSSY_LEVELS: usize = 7;
@@ -506,6 +512,30 @@ impl PackedField {
         if probes == 0 {
             return Err(UploadError::NoProbes);
         }
+        let bounds = match field.geometry_bounds {
+            None => None,
+            Some([lo, hi]) => {
+                for (parameter, corner) in [("geometry_bounds[0]", lo), ("geometry_bounds[1]", hi)]
+                {
+                    if !corner.is_finite() {
+                        return Err(UploadError::BadParameter {
+                            parameter,
+                            value: f32::NAN,
+                            requirement: "its coordinates must be finite",
+                        });
+                    }
+                }
+                if lo.cmpgt(hi).any() {
+                    return Err(UploadError::BadParameter {
+                        parameter: "geometry_bounds",
+                        value: (lo - hi).max_element(),
+                        requirement: "its min corner must not exceed its max corner on any axis (the value is the largest excess)",
+                    });
+                }
+                let margin = (hi - lo).length() * BOUNDS_MARGIN + 1e-3;
+                Some((lo - margin, hi + margin))
+            }
+        };
         let per_probe = padded_len(n);
         check_addressable("radiance", probes as u64 * per_probe as u64 * 3, 4)?;
         let texels = probes * per_probe;
@@ -659,6 +689,7 @@ impl PackedField {
             radiance,
             glossy_levels,
             glossy_offsets,
+            bounds,
         })
     }
 
@@ -1205,7 +1236,7 @@ impl PackedIrradiance {
     }
 }
 
-/// The trace pass's uniform block (304 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
+/// The trace pass's uniform block (336 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(crate) struct TraceParams {
@@ -1249,6 +1280,10 @@ pub(crate) struct TraceParams {
     pub glossy_blend: u32,
     /// Start texel of each glossy level in the radiance buffer (entry 0 unused).
     pub glossy_offsets: [[u32; 4]; 2],
+    /// The geometry bounds' min corner, `w` 1 when there are bounds (0: none).
+    pub bounds_min: [f32; 4],
+    /// The geometry bounds' max corner.
+    pub bounds_max: [f32; 4],
 }
 
 /// The diffuse pass's uniform block (128 bytes). WGSL mirror `DiffuseParams` in
@@ -1408,6 +1443,14 @@ pub(crate) fn trace_params(
         glossy_base_angle: probe_octa::texel_angle(field.resolution),
         glossy_blend: options.glossy_blend,
         glossy_offsets,
+        bounds_min: match field.bounds {
+            Some((lo, _)) => [lo.x, lo.y, lo.z, 1.0],
+            None => [0.0; 4],
+        },
+        bounds_max: match field.bounds {
+            Some((_, hi)) => [hi.x, hi.y, hi.z, 0.0],
+            None => [0.0; 4],
+        },
     })
 }
 

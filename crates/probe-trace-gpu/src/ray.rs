@@ -134,15 +134,16 @@ pub struct RayResult {
     /// Hit, miss or unknown.
     pub status: RayStatus,
     /// Ray parameter of the hit (Hit); where the answering probe's check ended, the ray's
-    /// `t_max` or just inside the probe's sky distance (Miss); how far the ray was verified
-    /// empty (Unknown). Always finite.
+    /// `t_max`, just inside the probe's sky distance, or past where the ray leaves the
+    /// field's geometry bounds (Miss); how far the ray was verified empty (Unknown). Always
+    /// finite.
     pub t: f32,
     /// `origin + t·direction`.
     pub position: Vec3,
     /// The stored surface normal at the hit (zero unless Hit).
     pub normal: Vec3,
-    /// Radiance the answering probe stored for the hit point (Hit), its sky (Miss), or the
-    /// environment-map fallback (Unknown).
+    /// Radiance stored for the hit point (Hit), the sky along the ray from a probe that sees
+    /// the sky that way (Miss), or an estimate (Unknown).
     pub radiance: Vec3,
     /// The probe that answered (Hit, Miss) or gave the fallback radiance (Unknown); `None`
     /// when no probe was tried.

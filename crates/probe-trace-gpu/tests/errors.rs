@@ -46,6 +46,30 @@ fn upload_errors_name_what_is_wrong() {
         );
     }
 
+    // Geometry bounds must be finite boxes.
+    for (bounds, parameter) in [
+        ([Vec3::ONE, Vec3::ZERO], "geometry_bounds"),
+        (
+            [Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE],
+            "geometry_bounds[0]",
+        ),
+        (
+            [Vec3::ZERO, Vec3::splat(f32::INFINITY)],
+            "geometry_bounds[1]",
+        ),
+    ] {
+        let boxed = LightField {
+            geometry_bounds: Some(bounds),
+            ..f.field()
+        };
+        let e = upload(&boxed, &grid).unwrap_err();
+        assert!(
+            matches!(e, UploadError::BadParameter { parameter: p, .. } if p == parameter),
+            "{e}"
+        );
+        assert!(e.to_string().contains(parameter), "{e}");
+    }
+
     let short = LightField {
         radial_distance: &f.distance[1..],
         ..f.field()
@@ -98,6 +122,7 @@ fn upload_errors_name_what_is_wrong() {
 
     let sky = LightField {
         sky_distance: 0.0,
+        geometry_bounds: None,
         ..f.field()
     };
     assert!(matches!(

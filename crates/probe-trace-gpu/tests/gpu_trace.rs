@@ -175,6 +175,28 @@ fn gpu_matches_cpu_at_a_free_edge() {
     assert_methods_agree(&mut gpu, &case.bake.field(), &selection, &rays, "wall edge");
 }
 
+/// The GPU ends rays at the scene's bounds as the CPU twin does (the Cornell box's open
+/// front), and hands on crossings of a thin sheet from behind likewise.
+#[test]
+fn gpu_matches_cpu_past_the_bounds_and_through_a_sheet() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    for (label, case) in [
+        ("cornell bounds", support::cornell_reflections()),
+        ("two-sided sheet", support::two_sided_sheet()),
+    ] {
+        let selection = ProbeSelection::Grid(case.grid);
+        let rays = to_trace_rays(&case.rays);
+        let pairs = assert_methods_agree(&mut gpu, &case.bake.field(), &selection, &rays, label);
+        let misses = pairs[0]
+            .0
+            .results
+            .iter()
+            .filter(|r| r.status == RayStatus::Miss)
+            .count();
+        eprintln!("{label}: {misses} misses of {} rays", rays.len());
+    }
+}
+
 /// Buffers are made once and grow only when needed: calls of varying sizes (including more
 /// rays than the first call) keep matching the CPU, and an empty call works.
 #[test]

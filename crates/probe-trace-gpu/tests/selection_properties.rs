@@ -47,6 +47,7 @@ fn check(
         radiance: &radiance,
         distance_range: None,
         sky_distance: SKY,
+        geometry_bounds: None,
     };
     let mut tracer = CpuTracer::new();
     let uploaded = tracer

@@ -510,10 +510,16 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
             // Within the thickness behind the plane and moving out of it: the ray leaves the
             // surface it starts on. Or the ray starts behind this plane (on a neighbouring
-            // face at a convex edge): it cannot hit the plane from behind. Either only within
-            // the thickness along the normal: deeper, the ray is behind the surface (on the
-            // far side of a wall), not on it.
-            if sa < -surface.plane_thickness {
+            // face at a convex edge): it cannot hit the plane from behind. Either only if the
+            // ray starts within the thickness along the normal: deeper, the ray is behind the
+            // surface (on the far side of a wall), not on it, or (the strict test) comes from
+            // behind a thin surface through it (its back face, which this probe does not see).
+            let from = if self.relaxed {
+                sa
+            } else {
+                sa - (ta - self.t_min) * k
+            };
+            if from < -surface.plane_thickness {
                 return (hidden, FetchKind::FineUnknown);
             }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);

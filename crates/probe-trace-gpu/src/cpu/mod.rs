@@ -764,6 +764,105 @@ fn sees_departure(
     offset >= -slack
 }
 
+/// Where a ray leaves the geometry bounds (`LightField::geometry_bounds`, widened): `f32::MAX`
+/// without bounds, 0 or less when it starts outside them moving away (`gpu/trace.wgsl`'s
+/// `bounds_exit` step for step).
+fn bounds_exit(params: &TraceParams, origin: Vec3, direction: Vec3) -> f32 {
+    if params.bounds_min[3] == 0.0 {
+        return f32::MAX;
+    }
+    let mut t = f32::MAX;
+    for axis in 0..3 {
+        let (o, d) = (origin[axis], direction[axis]);
+        let (lo, hi) = (params.bounds_min[axis], params.bounds_max[axis]);
+        if d > 0.0 {
+            t = t.min((hi - o) / d);
+        } else if d < 0.0 {
+            t = t.min((lo - o) / d);
+        } else if o < lo || o > hi {
+            return 0.0;
+        }
+    }
+    t
+}
+
+/// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
+/// (one fetch), else the first of the selection's candidates at
+/// `x` and then of the probes nearest `x` whose texel there does (a probe inside a room sees
+/// a wall where a ray left through a window), else `probe`.
+fn sky_probe(
+    selector: &Selector<'_>,
+    field: &PackedField,
+    probe: u32,
+    x: Vec3,
+    direction: Vec3,
+    fetches: &mut u32,
+) -> u32 {
+    let cell = direction_cell(field.resolution, direction);
+    let sees_sky = |q: u32| sky_texel(field, q, cell);
+    *fetches += 1;
+    if sees_sky(probe) {
+        return probe;
+    }
+    let (sky, _, examined) = first_seeing_sky(selector, x, direction, &sees_sky);
+    *fetches += examined;
+    if sky == NO_PROBE { probe } else { sky }
+}
+
+/// Whether `probe` sees the sky towards `exit`, where a ray it verified leaves the geometry
+/// bounds (one fetch): then nothing lies beyond the point, and the ray passed it in front of
+/// everything, not within the thickness of a surface in the box's face.
+fn leaves_into_sky(field: &PackedField, probe: u32, exit: Vec3, fetches: &mut u32) -> bool {
+    let v = exit - field.position(probe);
+    if v == Vec3::ZERO {
+        return false;
+    }
+    *fetches += 1;
+    sky_texel(
+        field,
+        probe,
+        direction_cell(field.resolution, v.normalize()),
+    )
+}
+
+/// Whether interior texel `cell` of `probe` saw no geometry (one fetch).
+fn sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
+    let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
+    f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
+}
+
+/// The first of the selection's candidates at `x`, then of the probes nearest `x`, for which
+/// `sees_sky` holds: `(that probe or NO_PROBE, the first candidate, candidates examined)`.
+fn first_seeing_sky(
+    selector: &Selector<'_>,
+    x: Vec3,
+    direction: Vec3,
+    sees_sky: &dyn Fn(u32) -> bool,
+) -> (u32, u32, u32) {
+    let list = selector.select(x, direction, NO_PROBE);
+    let anchor = selector.anchor(x);
+    let extension = if anchor == NO_PROBE {
+        0
+    } else {
+        selector.params.nearest_candidates.min(NEAREST_ROW)
+    };
+    let (mut first, mut examined) = (NO_PROBE, 0u32);
+    for i in 0..list.len + extension {
+        let q = selector.candidate(&list, anchor, NO_PROBE, i);
+        if q == NO_PROBE {
+            continue;
+        }
+        if first == NO_PROBE {
+            first = q;
+        }
+        examined += 1;
+        if sees_sky(q) {
+            return (q, first, examined);
+        }
+    }
+    (NO_PROBE, first, examined)
+}
+
 /// The multi-probe trace of one ray (seed 003 Alg. 5 with the selector's order, then the
 /// nearest probes), reporting to `observer` (`&mut ()` for none). `gpu/trace.wgsl`'s
 /// `trace_ray` step for step: one loop whose last pass, when no candidate is left or the cap
@@ -782,6 +881,9 @@ pub(crate) fn trace_ray<O: RayObserver>(
     };
     let origin = Vec3::from(ray.origin);
     let direction = Vec3::from(ray.direction);
+    // Nothing lies beyond the geometry bounds: a ray verified empty past where it leaves
+    // them, into what the verifying probe sees as sky there, is a MISS.
+    let t_exit = bounds_exit(params, origin, direction);
     let mut t = ray.t_min;
     let mut list = select::Candidates::default();
     // The probe that failed at `t` (the selection leaves it out), and the nearest-probe
@@ -859,7 +961,7 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 fallback = probe;
             }
         }
-        let answer = match observer.fetch_log() {
+        let mut answer = match observer.fetch_log() {
             Some(log) => trace_probe(field, params, probe, ray, t, estimating, log),
             None => trace_probe(field, params, probe, ray, t, estimating, ()),
         };
@@ -891,6 +993,12 @@ pub(crate) fn trace_ray<O: RayObserver>(
             break;
         }
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
+        if answer.code == UNKNOWN
+            && answer.t >= t_exit
+            && leaves_into_sky(field, probe, origin + direction * t_exit, &mut fetches)
+        {
+            answer.code = MISS;
+        }
         if answer.code == HIT || answer.code == MISS {
             let hit = origin + direction * answer.t;
             let normal = if answer.code == HIT {
@@ -898,11 +1006,17 @@ pub(crate) fn trace_ray<O: RayObserver>(
             } else {
                 Vec3::ZERO
             };
+            // A MISS reads the sky along the ray, from a probe whose texel there sees it.
+            let reader = if answer.code == MISS {
+                sky_probe(&selector, field, probe, origin, direction, &mut fetches)
+            } else {
+                probe
+            };
             let radiance = end_radiance(
                 field,
                 selection,
                 params,
-                probe,
+                reader,
                 &answer,
                 origin,
                 direction,
@@ -957,7 +1071,6 @@ pub(crate) fn look_up_point(
     };
     let x = Vec3::from(query.position);
     let direction = Vec3::from(query.direction);
-    let list = selector.select(x, direction, NO_PROBE);
     let mut record = RayRecord {
         status: UNKNOWN,
         probe: NO_PROBE,
@@ -968,30 +1081,10 @@ pub(crate) fn look_up_point(
         // The sky along the ray: from the first candidate whose texel in that direction sees
         // the sky (a probe inside a room sees a wall there, whatever the ray left through),
         // else the first candidate's texel.
-        let anchor = selector.anchor(x);
-        let extension = if anchor == NO_PROBE {
-            0
-        } else {
-            params.nearest_candidates.min(NEAREST_ROW)
-        };
         let cell = direction_cell(field.resolution, direction);
-        let (mut sky, mut first, mut fetches, mut examined) = (NO_PROBE, NO_PROBE, 0u32, 0u32);
-        for i in 0..list.len + extension {
-            let q = selector.candidate(&list, anchor, NO_PROBE, i);
-            if q == NO_PROBE {
-                continue;
-            }
-            if first == NO_PROBE {
-                first = q;
-            }
-            examined += 1;
-            fetches += 1;
-            let texel = field.geometry[padded_index(field.resolution, q, cell.x, cell.y)];
-            if f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= params.sky_distance {
-                sky = q;
-                break;
-            }
-        }
+        let sees_sky = |q: u32| sky_texel(field, q, cell);
+        let (sky, first, examined) = first_seeing_sky(&selector, x, direction, &sees_sky);
+        let mut fetches = examined;
         let probe = if sky != NO_PROBE { sky } else { first };
         if probe != NO_PROBE {
             record.status = MISS;
@@ -1007,6 +1100,7 @@ pub(crate) fn look_up_point(
         }
         return record;
     }
+    let list = selector.select(x, direction, NO_PROBE);
     let normal = crate::surface::unpack_normal(query.normal);
     let n = field.resolution;
     let (mut best, mut best_cell, mut best_score) = (NO_PROBE, UVec2::ZERO, 0.0f32);

@@ -15,6 +15,8 @@ const NO_EXIT: f32 = 4.0;
 // src/packed.rs COS_AMONG_SAMPLES.
 const COS_AMONG_SAMPLES: f32 = 0.05;
 const SIGN_BIT: u32 = 0x80000000u;
+// f32::MAX: "no bound" (src/cpu/mod.rs bounds_exit).
+const F32_MAX: f32 = 3.40282347e38;
 
 // probe_index::SvoHeader (48 bytes).
 struct SvoHeader {
@@ -30,7 +32,7 @@ struct SvoHeader {
     pad2: u32,
 }
 
-// src/packed.rs TraceParams (304 bytes).
+// src/packed.rs TraceParams (336 bytes).
 struct TraceParams {
     resolution: u32,
     probe_count: u32,
@@ -64,6 +66,8 @@ struct TraceParams {
     glossy_base_angle: f32,
     glossy_blend: u32,
     glossy_offsets: array<vec4<u32>, 2>,
+    bounds_min: vec4<f32>,
+    bounds_max: vec4<f32>,
 }
 
 // src/ray.rs TraceRay (32 bytes).
@@ -496,7 +500,8 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         return outcome_continue();
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
-        if (sa < -surface.plane_thickness) {
+        // Only a ray that starts within the thickness leaves the surface (src/cpu/march.rs).
+        if (sa - (ta - ray_t_min) * k < -surface.plane_thickness) {
             return outcome_unknown(ta);
         }
         return outcome_continue();
@@ -1231,8 +1236,89 @@ fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec
     return own;
 }
 
+// src/cpu/mod.rs bounds_exit: where the ray leaves the geometry bounds (F32_MAX: none).
+fn bounds_exit(origin: vec3<f32>, direction: vec3<f32>) -> f32 {
+    if (params.bounds_min.w == 0.0) {
+        return F32_MAX;
+    }
+    var t = F32_MAX;
+    for (var axis = 0u; axis < 3u; axis++) {
+        let o = origin[axis];
+        let d = direction[axis];
+        let lo = params.bounds_min[axis];
+        let hi = params.bounds_max[axis];
+        if (d > 0.0) {
+            t = min(t, (hi - o) / d);
+        } else if (d < 0.0) {
+            t = min(t, (lo - o) / d);
+        } else if (o < lo || o > hi) {
+            return 0.0;
+        }
+    }
+    return t;
+}
+
+// src/cpu/mod.rs leaves_into_sky: the probe sees the sky towards the exit point.
+fn leaves_into_sky(probe: u32, exit: vec3<f32>) -> bool {
+    let v = exit - positions[probe].xyz;
+    if (all(v == vec3<f32>(0.0))) {
+        return false;
+    }
+    fetches += 1u;
+    return sky_texel(probe, texel_containing(params.resolution, normalize(v)));
+}
+
+// src/cpu/mod.rs sky_texel (one fetch).
+fn sky_texel(probe: u32, cell: vec2<u32>) -> bool {
+    let texel = geometry[padded_index(params.resolution, probe, cell)];
+    return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance;
+}
+
+// src/cpu/mod.rs first_seeing_sky: (probe or NO_PROBE, first candidate, examined).
+fn first_seeing_sky(x: vec3<f32>, direction: vec3<f32>, cell: vec2<u32>) -> vec3<u32> {
+    let list = select_probes(x, direction, NO_PROBE);
+    let anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
+    var extension = 0u;
+    if (anchor != NO_PROBE) {
+        extension = min(params.nearest_candidates, NEAREST_ROW);
+    }
+    var first = NO_PROBE;
+    var examined = 0u;
+    for (var i = 0u; i < list.len + extension; i++) {
+        let q = candidate(list, anchor, NO_PROBE, i);
+        if (q == NO_PROBE) {
+            continue;
+        }
+        if (first == NO_PROBE) {
+            first = q;
+        }
+        examined += 1u;
+        if (sky_texel(q, cell)) {
+            return vec3<u32>(q, first, examined);
+        }
+    }
+    return vec3<u32>(NO_PROBE, first, examined);
+}
+
+// src/cpu/mod.rs sky_probe: the probe a MISS reads the sky from.
+fn sky_probe(probe: u32, x: vec3<f32>, direction: vec3<f32>) -> u32 {
+    let cell = texel_containing(params.resolution, direction);
+    fetches += 1u;
+    if (sky_texel(probe, cell)) {
+        return probe;
+    }
+    let found = first_seeing_sky(x, direction, cell);
+    fetches += found.z;
+    if (found.x == NO_PROBE) {
+        return probe;
+    }
+    return found.x;
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
+    // Nothing lies beyond the geometry bounds (src/cpu/mod.rs trace_ray).
+    let t_exit = bounds_exit(ray.origin, ray.direction);
     let origin = ray.origin;
     let direction = ray.direction;
     var t = ray.t_min;
@@ -1314,7 +1400,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 fallback = probe;
             }
         }
-        let answer = trace_probe(probe, ray, t, estimating);
+        var answer = trace_probe(probe, ray, t, estimating);
         if (estimating) {
             let at = positions[probe].xyz;
             if (answer.code == HIT) {
@@ -1334,6 +1420,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             blend = true;
             break;
         }
+        if (answer.code == UNKNOWN && answer.t >= t_exit && leaves_into_sky(probe, origin + direction * t_exit)) {
+            answer.code = MISS;
+        }
         if (answer.code == HIT || answer.code == MISS) {
             let hit = origin + direction * answer.t;
             var normal = vec3<f32>(0.0);
@@ -1341,8 +1430,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 normal = unpack_normal(answer.normal);
                 record.radiance = glossy_radiance(probe, hit - positions[probe].xyz, false, answer.cell, answer.t);
             } else {
+                // The sky along the ray, from a probe whose texel there sees it.
+                let reader = sky_probe(probe, origin, direction);
                 let cell = texel_containing(params.resolution, direction);
-                record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
+                record.radiance = glossy_radiance(reader, direction, true, cell, answer.t);
             }
             record.status = answer.code;
             record.t = answer.t;
@@ -1387,7 +1478,6 @@ fn look_up_point(index: u32) -> RayRecord {
     let x = bitcast<vec3<f32>>(a.xyz);
     let direction = bitcast<vec3<f32>>(b.xyz);
     let surface = b.w;
-    let list = select_probes(x, direction, NO_PROBE);
     var record: RayRecord;
     record.status = UNKNOWN;
     record.probe = NO_PROBE;
@@ -1401,31 +1491,12 @@ fn look_up_point(index: u32) -> RayRecord {
     record.pad1 = 0u;
     let n = params.resolution;
     if (surface == 0u) {
-        let anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
-        var extension = 0u;
-        if (anchor != NO_PROBE) {
-            extension = min(params.nearest_candidates, NEAREST_ROW);
-        }
         let cell = texel_containing(n, direction);
-        var sky = NO_PROBE;
-        var first = NO_PROBE;
-        var examined = 0u;
-        for (var i = 0u; i < list.len + extension; i++) {
-            let q = candidate(list, anchor, NO_PROBE, i);
-            if (q == NO_PROBE) {
-                continue;
-            }
-            if (first == NO_PROBE) {
-                first = q;
-            }
-            examined += 1u;
-            fetches += 1u;
-            let texel = geometry[padded_index(n, q, cell)];
-            if (bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance) {
-                sky = q;
-                break;
-            }
-        }
+        let found = first_seeing_sky(x, direction, cell);
+        let sky = found.x;
+        let first = found.y;
+        let examined = found.z;
+        fetches += examined;
         var probe = first;
         if (sky != NO_PROBE) {
             probe = sky;
@@ -1444,6 +1515,7 @@ fn look_up_point(index: u32) -> RayRecord {
         }
         return record;
     }
+    let list = select_probes(x, direction, NO_PROBE);
     let normal = unpack_normal(a.w);
     var best = NO_PROBE;
     var best_cell = vec2<u32>(0u);

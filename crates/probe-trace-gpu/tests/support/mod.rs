@@ -26,6 +26,8 @@ pub struct Bake {
     /// not measured).
     pub distance_range: Vec<Vec2>,
     pub sky_distance: f32,
+    /// The scene's bounds (`LightField::geometry_bounds`; `None` for [`Bake::flat`]).
+    pub bounds: Option<[Vec3; 2]>,
 }
 
 impl Bake {
@@ -42,6 +44,7 @@ impl Bake {
             radiance: vec![Vec3::ONE; len],
             distance_range: Vec::new(),
             sky_distance: 100.0,
+            bounds: None,
         }
     }
 
@@ -54,6 +57,7 @@ impl Bake {
             radiance: &self.radiance,
             distance_range: (!self.distance_range.is_empty()).then_some(&self.distance_range[..]),
             sky_distance: self.sky_distance,
+            geometry_bounds: self.bounds,
         }
     }
 
@@ -153,6 +157,7 @@ pub fn mini_capture(
         radiance: Vec::with_capacity(len * positions.len()),
         distance_range: Vec::with_capacity(len * positions.len()),
         sky_distance,
+        bounds: Some([scene.bounds().min, scene.bounds().max]),
     };
     for (d, n, r, range) in per_probe {
         bake.distance.extend(d);
@@ -230,6 +235,7 @@ pub fn capture_bake(scene: &Scene, positions: &[Vec3], resolution: u32) -> Bake 
         radiance: baked.radiance().to_vec(),
         distance_range: Vec::new(),
         sky_distance: capture_sky_distance(scene),
+        bounds: Some([scene.bounds().min, scene.bounds().max]),
     }
 }
 
@@ -640,5 +646,60 @@ pub fn wall_edge() -> WallEdge {
         bake,
         rays,
         offsets,
+    }
+}
+
+/// A scene, probes baked by the [`mini_capture`] on a grid, and rays to trace through them.
+pub struct GridCase {
+    pub scene: Scene,
+    pub grid: probe_index::ProbeGrid,
+    pub bake: Bake,
+    pub rays: Vec<Ray>,
+}
+
+/// The built-in Cornell box's reflection rays from its default view (96×72) through 27
+/// probes at 32², with the scene's bounds: many rays leave through the open front.
+pub fn cornell_reflections() -> GridCase {
+    let scene = Scene::open("builtin:cornell").expect("a built-in scene");
+    let grid =
+        probe_index::ProbeGrid::new(Vec3::splat(0.07), Vec3::new(0.205, 0.2, 0.21), [3, 3, 3])
+            .expect("a valid grid");
+    let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &albedo_shade(&scene));
+    let rays = reflection_rays(&scene, &camera_rays(&scene, 96, 72));
+    GridCase {
+        scene,
+        grid,
+        bake,
+        rays,
+    }
+}
+
+/// The shared `TwoSidedPlane.glb` (a double-sided sheet 2 m across at y = 0) between 2×2×2
+/// probes at ±0.5 m, 32², and 4,000 rays from above and below towards it (as the failure
+/// suite's `two-sided-plane`): every ray meets the sheet.
+pub fn two_sided_sheet() -> GridCase {
+    let scene = Scene::load(probe_testdata::scene_path(probe_testdata::TWO_SIDED_PLANE))
+        .expect("the shared scenes");
+    let grid =
+        probe_index::ProbeGrid::new(Vec3::splat(-0.5), Vec3::ONE, [2, 2, 2]).expect("a valid grid");
+    let bake = mini_capture(&scene, &grid.positions(), 32, 100.0, &albedo_shade(&scene));
+    let mut lcg = probe_testdata::Lcg(11);
+    let rays = (0..4000)
+        .map(|i| {
+            let side = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let origin = Vec3::new(
+                1.8 * lcg.uniform() - 0.9,
+                side * (0.1 + 0.8 * lcg.uniform()),
+                1.8 * lcg.uniform() - 0.9,
+            );
+            let target = Vec3::new(1.9 * lcg.uniform() - 0.95, 0.0, 1.9 * lcg.uniform() - 0.95);
+            Ray::new(origin, target - origin)
+        })
+        .collect();
+    GridCase {
+        scene,
+        grid,
+        bake,
+        rays,
     }
 }
