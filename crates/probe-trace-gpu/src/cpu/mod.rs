@@ -787,26 +787,34 @@ fn bounds_exit(params: &TraceParams, origin: Vec3, direction: Vec3) -> f32 {
 }
 
 /// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
-/// (one fetch), else the first of the selection's candidates at
-/// `x` and then of the probes nearest `x` whose texel there does (a probe inside a room sees
-/// a wall where a ray left through a window), else `probe`.
+/// (one fetch), else the first of `origin_list` (the selection's candidates at the ray's
+/// origin) and then of `probe`'s row of the nearest-probe table whose texel there does (a
+/// probe inside a room sees a wall where a ray left through a window), else `probe`.
 fn sky_probe(
     selector: &Selector<'_>,
     field: &PackedField,
     probe: u32,
-    x: Vec3,
+    origin_list: &select::Candidates,
     direction: Vec3,
     fetches: &mut u32,
 ) -> u32 {
     let cell = direction_cell(field.resolution, direction);
-    let sees_sky = |q: u32| sky_texel(field, q, cell);
     *fetches += 1;
-    if sees_sky(probe) {
+    if sky_texel(field, probe, cell) {
         return probe;
     }
-    let (sky, _, examined) = first_seeing_sky(selector, x, direction, &sees_sky);
-    *fetches += examined;
-    if sky == NO_PROBE { probe } else { sky }
+    let row = selector.params.nearest_candidates.min(NEAREST_ROW);
+    for i in 0..origin_list.len + row {
+        let q = selector.candidate(origin_list, probe, probe, i);
+        if q == NO_PROBE || q == probe {
+            continue;
+        }
+        *fetches += 1;
+        if sky_texel(field, q, cell) {
+            return q;
+        }
+    }
+    probe
 }
 
 /// Whether `probe` sees the sky towards `exit`, where a ray it verified leaves the geometry
@@ -886,6 +894,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
     let t_exit = bounds_exit(params, origin, direction);
     let mut t = ray.t_min;
     let mut list = select::Candidates::default();
+    // The candidates at the ray's origin: where a MISS looks for a probe that sees the sky.
+    let mut origin_list = select::Candidates::default();
     // The probe that failed at `t` (the selection leaves it out), and the nearest-probe
     // table's row that extends the list once its own candidates have failed.
     let mut failed = NO_PROBE;
@@ -903,6 +913,9 @@ pub(crate) fn trace_ray<O: RayObserver>(
         let here = origin + direction * t;
         if reselect {
             list = selector.select(here, direction, failed);
+            if t == ray.t_min {
+                origin_list = list;
+            }
             (next, extension, extended, reselect) = (0, 0, false, false);
         }
         let mut probe = NO_PROBE;
@@ -1008,7 +1021,14 @@ pub(crate) fn trace_ray<O: RayObserver>(
             };
             // A MISS reads the sky along the ray, from a probe whose texel there sees it.
             let reader = if answer.code == MISS {
-                sky_probe(&selector, field, probe, origin, direction, &mut fetches)
+                sky_probe(
+                    &selector,
+                    field,
+                    probe,
+                    &origin_list,
+                    direction,
+                    &mut fetches,
+                )
             } else {
                 probe
             };

@@ -1300,19 +1300,27 @@ fn first_seeing_sky(x: vec3<f32>, direction: vec3<f32>, cell: vec2<u32>) -> vec3
     return vec3<u32>(NO_PROBE, first, examined);
 }
 
-// src/cpu/mod.rs sky_probe: the probe a MISS reads the sky from.
-fn sky_probe(probe: u32, x: vec3<f32>, direction: vec3<f32>) -> u32 {
+// src/cpu/mod.rs sky_probe: the probe a MISS reads the sky from (it, else the first of the
+// candidates at the ray's origin and then of its nearest-table row whose texel along the ray
+// sees the sky).
+fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>) -> u32 {
     let cell = texel_containing(params.resolution, direction);
     fetches += 1u;
     if (sky_texel(probe, cell)) {
         return probe;
     }
-    let found = first_seeing_sky(x, direction, cell);
-    fetches += found.z;
-    if (found.x == NO_PROBE) {
-        return probe;
+    let row = min(params.nearest_candidates, NEAREST_ROW);
+    for (var i = 0u; i < origin_list.len + row; i++) {
+        let q = candidate(origin_list, probe, probe, i);
+        if (q == NO_PROBE || q == probe) {
+            continue;
+        }
+        fetches += 1u;
+        if (sky_texel(q, cell)) {
+            return q;
+        }
     }
-    return found.x;
+    return probe;
 }
 
 fn trace_ray(ray: TraceRay) -> RayRecord {
@@ -1323,6 +1331,8 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     let direction = ray.direction;
     var t = ray.t_min;
     var list: Candidates;
+    // The candidates at the ray's origin (src/cpu/mod.rs trace_ray).
+    var origin_list: Candidates;
     var failed = NO_PROBE;
     var reselect = true;
     var anchor = NO_PROBE;
@@ -1346,6 +1356,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
         let here = origin + direction * t;
         if (reselect) {
             list = select_probes(here, direction, failed);
+            if (t == ray.t_min) {
+                origin_list = list;
+            }
             next = 0u;
             extension = 0u;
             extended = false;
@@ -1431,7 +1444,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 record.radiance = glossy_radiance(probe, hit - positions[probe].xyz, false, answer.cell, answer.t);
             } else {
                 // The sky along the ray, from a probe whose texel there sees it.
-                let reader = sky_probe(probe, origin, direction);
+                let reader = sky_probe(probe, origin_list, direction);
                 let cell = texel_containing(params.resolution, direction);
                 record.radiance = glossy_radiance(reader, direction, true, cell, answer.t);
             }
