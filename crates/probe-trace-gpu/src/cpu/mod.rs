@@ -892,6 +892,11 @@ pub(crate) fn trace_ray<O: RayObserver>(
     // Nothing lies beyond the geometry bounds: a ray verified empty past where it leaves
     // them, into what the verifying probe sees as sky there, is a MISS.
     let t_exit = bounds_exit(params, origin, direction);
+    // A filtered (cone) ray verified past the bounds: a MISS where it was verified, whose
+    // radiance is the estimate's, as for an UNKNOWN ray (a cone whose axis leaves the scene
+    // still meets what lies around the axis; the sky along the axis reads that worse:
+    // BENCHMARKS, "Rays that leave the scene").
+    let mut cone_miss: Option<f32> = None;
     let mut t = ray.t_min;
     let mut list = select::Candidates::default();
     // The candidates at the ray's origin: where a MISS looks for a probe that sees the sky.
@@ -1010,6 +1015,11 @@ pub(crate) fn trace_ray<O: RayObserver>(
             && answer.t >= t_exit
             && leaves_into_sky(field, probe, origin + direction * t_exit, &mut fetches)
         {
+            if params.glossy_levels > 0 {
+                cone_miss = Some(answer.t);
+                estimating = true;
+                continue;
+            }
             answer.code = MISS;
         }
         if answer.code == HIT || answer.code == MISS {
@@ -1061,6 +1071,12 @@ pub(crate) fn trace_ray<O: RayObserver>(
         } else {
             next += 1;
         }
+    }
+    if let Some(t_miss) = cone_miss {
+        record.status = MISS;
+        record.t = t_miss;
+        record.position = (origin + direction * t_miss).to_array();
+        record.normal = [0.0; 3];
     }
     record.texel_fetches = fetches;
     observer.ray_done(record.status, fetches);

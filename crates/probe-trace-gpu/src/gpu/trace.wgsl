@@ -1327,6 +1327,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     // Nothing lies beyond the geometry bounds (src/cpu/mod.rs trace_ray).
     let t_exit = bounds_exit(ray.origin, ray.direction);
+    // A filtered ray verified past the bounds: a MISS with the estimate's radiance.
+    var cone_miss = false;
+    var t_miss = 0.0;
     let origin = ray.origin;
     let direction = ray.direction;
     var t = ray.t_min;
@@ -1434,6 +1437,12 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             break;
         }
         if (answer.code == UNKNOWN && answer.t >= t_exit && leaves_into_sky(probe, origin + direction * t_exit)) {
+            if (params.glossy_levels > 0u) {
+                cone_miss = true;
+                t_miss = answer.t;
+                estimating = true;
+                continue;
+            }
             answer.code = MISS;
         }
         if (answer.code == HIT || answer.code == MISS) {
@@ -1470,6 +1479,12 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     // One call site: the blend's k-nearest search keeps its stack once per invocation.
     if (blend) {
         record.radiance = blended_radiance(origin, direction, blend_hit, origin + direction * blend_t, record.normal, blend_t, record.radiance);
+    }
+    if (cone_miss) {
+        record.status = MISS;
+        record.t = t_miss;
+        record.position = origin + direction * t_miss;
+        record.normal = vec3<f32>(0.0);
     }
     record.texel_fetches = fetches;
     return record;
