@@ -1257,4 +1257,47 @@ mod tests {
             }
         }
     }
+
+    proptest::proptest! {
+        // A fixed seed: the same cases on every run.
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 256,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(5),
+            failure_persistence: None,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+
+        /// From inside the box, `bounds_exit` lands on its surface: the point there is in the
+        /// box (within rounding) on a face, and a little farther along the ray it is outside.
+        /// From outside, moving away, it is at most 0; without bounds, `f32::MAX`.
+        #[test]
+        fn bounds_exit_lands_on_the_box(
+            lo in proptest::array::uniform3(-50.0f32..50.0),
+            size in proptest::array::uniform3(0.01f32..40.0),
+            at in proptest::array::uniform3(0.0f32..1.0),
+            d in proptest::array::uniform3(-1.0f32..1.0),
+        ) {
+            let (lo, size) = (Vec3::from(lo), Vec3::from(size));
+            let hi = lo + size;
+            let d = Vec3::from(d);
+            proptest::prop_assume!(d.length() > 1e-3);
+            let d = d.normalize();
+            let mut params = <TraceParams as bytemuck::Zeroable>::zeroed();
+            proptest::prop_assert_eq!(bounds_exit(&params, Vec3::ZERO, d), f32::MAX);
+            params.bounds_min = [lo.x, lo.y, lo.z, 1.0];
+            params.bounds_max = [hi.x, hi.y, hi.z, 0.0];
+            let origin = lo + size * Vec3::from(at);
+            let t = bounds_exit(&params, origin, d);
+            proptest::prop_assert!(t >= 0.0 && t.is_finite(), "t {}", t);
+            let p = origin + d * t;
+            let eps = 1e-4 * (1.0 + lo.abs().max(hi.abs()).max_element());
+            proptest::prop_assert!(p.cmpge(lo - eps).all() && p.cmple(hi + eps).all(), "{:?}", p);
+            let on_face = (p - lo).abs().min_element() <= eps || (p - hi).abs().min_element() <= eps;
+            proptest::prop_assert!(on_face, "{:?} not on a face of {:?}..{:?}", p, lo, hi);
+            let beyond = origin + d * (t + 10.0 * eps + 1e-3);
+            proptest::prop_assert!(beyond.cmplt(lo).any() || beyond.cmpgt(hi).any());
+            // Leaving: from just outside the face it crossed, moving on, nothing is ahead.
+            proptest::prop_assert!(bounds_exit(&params, beyond, d) <= 0.0);
+        }
+    }
 }
