@@ -1396,6 +1396,10 @@ pub(crate) fn trace_params(
     for (i, &offset) in field.level_offsets.iter().enumerate() {
         level_offsets[i / 4][i % 4] = offset;
     }
+    let (bounds_min, bounds_max) = match field.bounds {
+        Some((lo, hi)) => ([lo.x, lo.y, lo.z, 1.0], [hi.x, hi.y, hi.z, 0.0]),
+        None => ([0.0; 4], [0.0; 4]),
+    };
     Ok(TraceParams {
         resolution: field.resolution,
         probe_count: field.probe_count,
@@ -1443,14 +1447,8 @@ pub(crate) fn trace_params(
         glossy_base_angle: probe_octa::texel_angle(field.resolution),
         glossy_blend: options.glossy_blend,
         glossy_offsets,
-        bounds_min: match field.bounds {
-            Some((lo, _)) => [lo.x, lo.y, lo.z, 1.0],
-            None => [0.0; 4],
-        },
-        bounds_max: match field.bounds {
-            Some((_, hi)) => [hi.x, hi.y, hi.z, 0.0],
-            None => [0.0; 4],
-        },
+        bounds_min,
+        bounds_max,
     })
 }
 

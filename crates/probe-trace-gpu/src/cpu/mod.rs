@@ -390,12 +390,12 @@ fn bilinear_texels(n: u32, v: Vec3) -> Option<[(UVec2, f32); 4]> {
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
 /// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
 fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
+    if sky {
+        return sky_texel(field, probe, texel);
+    }
     let n = field.resolution;
     let g = field.geometry[padded_index(n, probe, texel.x, texel.y)];
     let distance = f32::from_bits(g[0] & !crate::packed::SIGN_BIT);
-    if sky {
-        return distance >= field.sky_distance;
-    }
     if distance >= field.sky_distance {
         return false;
     }
@@ -645,8 +645,7 @@ fn blended_radiance(
         } else {
             *fetches += 1;
             let cell = direction_cell(field.resolution, direction);
-            let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
-            if f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) < field.sky_distance {
+            if !sky_texel(field, probe, cell) {
                 continue;
             }
             let read = glossy_radiance(field, params, probe, direction, true, cell, t, fetches);
@@ -839,13 +838,15 @@ fn sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
     f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
 }
 
-/// The first of the selection's candidates at `x`, then of the probes nearest `x`, for which
-/// `sees_sky` holds: `(that probe or NO_PROBE, the first candidate, candidates examined)`.
+/// The first of the selection's candidates at `x`, then of the probes nearest `x`, whose
+/// interior texel `cell` sees the sky ([`sky_texel`], one fetch each): `(that probe or
+/// NO_PROBE, the first candidate, candidates examined)`.
 fn first_seeing_sky(
     selector: &Selector<'_>,
+    field: &PackedField,
     x: Vec3,
     direction: Vec3,
-    sees_sky: &dyn Fn(u32) -> bool,
+    cell: UVec2,
 ) -> (u32, u32, u32) {
     let list = selector.select(x, direction, NO_PROBE);
     let anchor = selector.anchor(x);
@@ -864,7 +865,7 @@ fn first_seeing_sky(
             first = q;
         }
         examined += 1;
-        if sees_sky(q) {
+        if sky_texel(field, q, cell) {
             return (q, first, examined);
         }
     }
@@ -1118,8 +1119,7 @@ pub(crate) fn look_up_point(
         // the sky (a probe inside a room sees a wall there, whatever the ray left through),
         // else the first candidate's texel.
         let cell = direction_cell(field.resolution, direction);
-        let sees_sky = |q: u32| sky_texel(field, q, cell);
-        let (sky, first, examined) = first_seeing_sky(&selector, x, direction, &sees_sky);
+        let (sky, first, examined) = first_seeing_sky(&selector, field, x, direction, cell);
         let mut fetches = examined;
         let probe = if sky != NO_PROBE { sky } else { first };
         if probe != NO_PROBE {

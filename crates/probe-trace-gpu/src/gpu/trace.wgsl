@@ -943,12 +943,12 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> vec2<u32> {
 // within the plane's thickness) or, with `sky`, is sky (src/cpu/mod.rs texel_shows; one fetch,
 // counted by the caller).
 fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>, sky: bool) -> bool {
+    if (sky) {
+        return sky_texel(probe, texel);
+    }
     let n = params.resolution;
     let g = geometry[padded_index(n, probe, texel)];
     let distance = bitcast<f32>(g.x & ~SIGN_BIT);
-    if (sky) {
-        return distance >= params.sky_distance;
-    }
     if (distance >= params.sky_distance) {
         return false;
     }
@@ -1222,8 +1222,7 @@ fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec
         } else {
             fetches += 1u;
             let cell = texel_containing(params.resolution, direction);
-            let texel = geometry[padded_index(params.resolution, probe, cell)];
-            if (bitcast<f32>(texel.x & ~SIGN_BIT) < params.sky_distance) {
+            if (!sky_texel(probe, cell)) {
                 continue;
             }
             sum += falloff * glossy_radiance(probe, direction, true, cell, t);
