@@ -387,22 +387,63 @@ fn bilinear_texels(n: u32, v: Vec3) -> Option<[(UVec2, f32); 4]> {
     }))
 }
 
+/// The surface one texel of a probe stores, as the point tests read it
+/// ([`TexelPlane::offset`]; `gpu/trace.wgsl`'s `texel_plane` step for step).
+struct TexelPlane {
+    /// The texel's record (distance and edge flag, packed normal, …, far bound and edge flag).
+    record: [u32; 4],
+    /// The stored radial distance.
+    distance: f32,
+    /// Where the texel's centre ray meets the stored surface, relative to the probe.
+    point: Vec3,
+    /// The texel's plane with its thickness.
+    surface: crate::surface::TexelSurface,
+}
+
+impl TexelPlane {
+    /// `texel` of `probe` (one fetch; the caller counts it), or `None` for a sky texel.
+    fn of(field: &PackedField, probe: u32, texel: UVec2) -> Option<Self> {
+        let n = field.resolution;
+        let record = field.geometry[padded_index(n, probe, texel.x, texel.y)];
+        let distance = f32::from_bits(record[0] & !crate::packed::SIGN_BIT);
+        if distance >= field.sky_distance {
+            return None;
+        }
+        let center = probe_octa::decode(crate::surface::texel_center(n, texel.x, texel.y));
+        let normal = crate::surface::unpack_normal(record[1]);
+        Some(Self {
+            record,
+            distance,
+            point: center * distance,
+            surface: crate::surface::texel_surface(
+                n,
+                center,
+                distance,
+                normal,
+                field.thickness_scale,
+            ),
+        })
+    }
+
+    /// The signed distance of `v` (relative to the probe) from the plane, positive on the
+    /// side the probe sees.
+    fn offset(&self, v: Vec3) -> f32 {
+        (v - self.point).dot(self.surface.visible_normal)
+    }
+
+    /// Whether the plane holds `v` within its thickness.
+    fn holds(&self, v: Vec3) -> bool {
+        self.offset(v).abs() <= self.surface.plane_thickness
+    }
+}
+
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
 /// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
 fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
     if sky {
         return sky_texel(field, probe, texel);
     }
-    let n = field.resolution;
-    let g = field.geometry[padded_index(n, probe, texel.x, texel.y)];
-    let distance = f32::from_bits(g[0] & !crate::packed::SIGN_BIT);
-    if distance >= field.sky_distance {
-        return false;
-    }
-    let center = probe_octa::decode(crate::surface::texel_center(n, texel.x, texel.y));
-    let normal = crate::surface::unpack_normal(g[1]);
-    let surface = crate::surface::texel_surface(n, center, distance, normal, field.thickness_scale);
-    (v - center * distance).dot(surface.visible_normal).abs() <= surface.plane_thickness
+    TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
 }
 
 /// Whether the surface point `v` (relative to `probe`) lies among samples of its surface:
@@ -742,21 +783,16 @@ fn sees_departure(
         return true;
     }
     *fetches += 1;
-    let n = field.resolution;
-    let cell = direction_cell(n, v / r);
-    let texel = field.geometry[padded_index(n, probe, cell.x, cell.y)];
-    let distance = f32::from_bits(texel[0] & !crate::packed::SIGN_BIT);
-    if distance >= field.sky_distance {
+    let cell = direction_cell(field.resolution, v / r);
+    let Some(plane) = TexelPlane::of(field, probe, cell) else {
         return true;
-    }
-    if r > f32::from_bits(texel[3] & !crate::packed::SIGN_BIT) {
+    };
+    if r > f32::from_bits(plane.record[3] & !crate::packed::SIGN_BIT) {
         return false;
     }
-    let center = probe_octa::decode(crate::surface::texel_center(n, cell.x, cell.y));
-    let normal = crate::surface::unpack_normal(texel[1]);
-    let surface = crate::surface::texel_surface(n, center, distance, normal, field.thickness_scale);
+    let surface = &plane.surface;
     let slack = if strict { 0.0 } else { surface.plane_thickness };
-    let offset = (v - center * distance).dot(surface.visible_normal);
+    let offset = plane.offset(v);
     if offset.abs() <= surface.plane_thickness && direction.dot(surface.visible_normal) < 0.0 {
         return false;
     }
@@ -1178,29 +1214,20 @@ pub(crate) fn look_up_point(
         examined += 1;
         fetches += 1;
         let cell = direction_cell(n, w);
-        let texel = field.geometry[padded_index(n, probe, cell.x, cell.y)];
-        let distance = f32::from_bits(texel[0] & !crate::packed::SIGN_BIT);
-        if distance >= params.sky_distance {
+        let Some(plane) = TexelPlane::of(field, probe, cell) else {
             continue;
-        }
+        };
         // The texel shows the point: it lies on the texel's plane, within the plane's
         // thickness along its normal.
-        let center = probe_octa::decode(crate::surface::texel_center(n, cell.x, cell.y));
-        let plane = crate::surface::texel_surface(
-            n,
-            center,
-            distance,
-            crate::surface::unpack_normal(texel[1]),
-            params.thickness_scale,
-        );
-        if (v - center * distance).dot(plane.visible_normal).abs() <= plane.plane_thickness {
+        if plane.holds(v) {
+            let texel = plane.record;
             let edge = (texel[0] | texel[3]) & crate::packed::SIGN_BIT != 0;
             let score = facing / r * if edge { 0.25 } else { 1.0 };
             if score > best_score {
                 (best, best_cell, best_score) = (probe, cell, score);
             }
         } else {
-            let error = (r - distance).abs() / r;
+            let error = (r - plane.distance).abs() / r;
             if error < near_miss_error {
                 (near_miss, near_miss_cell, near_miss_error) = (probe, cell, error);
             }

@@ -895,23 +895,19 @@ fn sees_departure(probe: u32, p: vec3<f32>, direction: vec3<f32>, strict: bool) 
         return true;
     }
     fetches += 1u;
-    let n = params.resolution;
-    let cell = texel_containing(n, v / r);
-    let texel = geometry[padded_index(n, probe, cell)];
-    let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
-    if (distance >= params.sky_distance) {
+    let plane = texel_plane(probe, texel_containing(params.resolution, v / r));
+    if (plane.sky) {
         return true;
     }
-    if (r > bitcast<f32>(texel.w & ~SIGN_BIT)) {
+    if (r > bitcast<f32>(plane.record.w & ~SIGN_BIT)) {
         return false;
     }
-    let center = octa_decode(texel_center(n, cell));
-    let surface = texel_surface(n, center, distance, unpack_normal(texel.y), params.thickness_scale);
+    let surface = plane.surface;
     var slack = surface.plane_thickness;
     if (strict) {
         slack = 0.0;
     }
-    let offset = dot(v - center * distance, surface.visible_normal);
+    let offset = dot(v - plane.point, surface.visible_normal);
     if (abs(offset) <= surface.plane_thickness && dot(direction, surface.visible_normal) < 0.0) {
         return false;
     }
@@ -946,15 +942,40 @@ fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>, sky: bool) -> bool {
     if (sky) {
         return sky_texel(probe, texel);
     }
+    let plane = texel_plane(probe, texel);
+    return !plane.sky && plane_holds(plane, v);
+}
+
+// The surface one texel of a probe stores, as the point tests read it (src/cpu/mod.rs
+// TexelPlane; one fetch, counted by the caller): `sky` for a sky texel, whose other fields
+// are then unset.
+struct TexelPlane {
+    sky: bool,
+    record: vec4<u32>,
+    distance: f32,
+    point: vec3<f32>,
+    surface: TexelSurface,
+}
+
+fn texel_plane(probe: u32, texel: vec2<u32>) -> TexelPlane {
+    var plane: TexelPlane;
     let n = params.resolution;
-    let g = geometry[padded_index(n, probe, texel)];
-    let distance = bitcast<f32>(g.x & ~SIGN_BIT);
-    if (distance >= params.sky_distance) {
-        return false;
+    plane.record = geometry[padded_index(n, probe, texel)];
+    plane.distance = bitcast<f32>(plane.record.x & ~SIGN_BIT);
+    plane.sky = plane.distance >= params.sky_distance;
+    if (plane.sky) {
+        return plane;
     }
     let center = octa_decode(texel_center(n, texel));
-    let surface = texel_surface(n, center, distance, unpack_normal(g.y), params.thickness_scale);
-    return abs(dot(v - center * distance, surface.visible_normal)) <= surface.plane_thickness;
+    plane.point = center * plane.distance;
+    plane.surface = texel_surface(n, center, plane.distance, unpack_normal(plane.record.y), params.thickness_scale);
+    return plane;
+}
+
+// Whether the plane holds v (relative to the probe) within its thickness (src/cpu/mod.rs
+// TexelPlane::holds).
+fn plane_holds(plane: TexelPlane, v: vec3<f32>) -> bool {
+    return abs(dot(v - plane.point, plane.surface.visible_normal)) <= plane.surface.plane_thickness;
 }
 
 // The continuous texel coordinate of direction v (relative to a probe) in the n×n map: the
@@ -1588,16 +1609,13 @@ fn look_up_point(index: u32) -> RayRecord {
         examined += 1u;
         fetches += 1u;
         let cell = texel_containing(n, w);
-        let texel = geometry[padded_index(n, probe, cell)];
-        let distance = bitcast<f32>(texel.x & ~SIGN_BIT);
-        if (distance >= params.sky_distance) {
+        let plane = texel_plane(probe, cell);
+        if (plane.sky) {
             continue;
         }
-        let center = octa_decode(texel_center(n, cell));
-        let plane = texel_surface(n, center, distance, unpack_normal(texel.y), params.thickness_scale);
-        if (abs(dot(v - center * distance, plane.visible_normal)) <= plane.plane_thickness) {
+        if (plane_holds(plane, v)) {
             var score = facing / r;
-            if (((texel.x | texel.w) & SIGN_BIT) != 0u) {
+            if (((plane.record.x | plane.record.w) & SIGN_BIT) != 0u) {
                 score = score * 0.25;
             }
             if (score > best_score) {
@@ -1606,7 +1624,7 @@ fn look_up_point(index: u32) -> RayRecord {
                 best_score = score;
             }
         } else {
-            let error = abs(r - distance) / r;
+            let error = abs(r - plane.distance) / r;
             if (error < near_miss_error) {
                 near_miss = probe;
                 near_miss_cell = cell;
