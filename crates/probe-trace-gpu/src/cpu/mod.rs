@@ -838,18 +838,9 @@ fn sky_probe(
     if sky_texel(field, probe, cell) {
         return probe;
     }
-    let row = selector.params.nearest_candidates.min(NEAREST_ROW);
-    for i in 0..origin_list.len + row {
-        let q = selector.candidate(origin_list, probe, probe, i);
-        if q == NO_PROBE || q == probe {
-            continue;
-        }
-        *fetches += 1;
-        if sky_texel(field, q, cell) {
-            return q;
-        }
-    }
-    probe
+    let (sky, _, examined) = first_sky_candidate(selector, field, origin_list, probe, probe, cell);
+    *fetches += examined;
+    if sky != NO_PROBE { sky } else { probe }
 }
 
 /// Whether `probe` sees the sky towards `exit`, where a ray it verified leaves the geometry
@@ -875,8 +866,7 @@ fn sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
 }
 
 /// The first of the selection's candidates at `x`, then of the probes nearest `x`, whose
-/// interior texel `cell` sees the sky ([`sky_texel`], one fetch each): `(that probe or
-/// NO_PROBE, the first candidate, candidates examined)`.
+/// interior texel `cell` sees the sky ([`first_sky_candidate`]).
 fn first_seeing_sky(
     selector: &Selector<'_>,
     field: &PackedField,
@@ -886,6 +876,21 @@ fn first_seeing_sky(
 ) -> (u32, u32, u32) {
     let list = selector.select(x, direction, NO_PROBE);
     let anchor = selector.anchor(x);
+    first_sky_candidate(selector, field, &list, anchor, NO_PROBE, cell)
+}
+
+/// The first probe of `list`, then of `anchor`'s row of the nearest-probe table (none for
+/// `NO_PROBE`), other than `skip`, whose interior texel `cell` sees the sky ([`sky_texel`],
+/// one fetch each): `(that probe or NO_PROBE, the first candidate, candidates examined)`
+/// (`gpu/trace.wgsl`'s `first_sky_candidate` step for step).
+fn first_sky_candidate(
+    selector: &Selector<'_>,
+    field: &PackedField,
+    list: &select::Candidates,
+    anchor: u32,
+    skip: u32,
+    cell: UVec2,
+) -> (u32, u32, u32) {
     let extension = if anchor == NO_PROBE {
         0
     } else {
@@ -893,8 +898,8 @@ fn first_seeing_sky(
     };
     let (mut first, mut examined) = (NO_PROBE, 0u32);
     for i in 0..list.len + extension {
-        let q = selector.candidate(&list, anchor, NO_PROBE, i);
-        if q == NO_PROBE {
+        let q = selector.candidate(list, anchor, skip, i);
+        if q == NO_PROBE || q == skip {
             continue;
         }
         if first == NO_PROBE {

@@ -1298,6 +1298,13 @@ fn sky_texel(probe: u32, cell: vec2<u32>) -> bool {
 fn first_seeing_sky(x: vec3<f32>, direction: vec3<f32>, cell: vec2<u32>) -> vec3<u32> {
     let list = select_probes(x, direction, NO_PROBE);
     let anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
+    return first_sky_candidate(list, anchor, NO_PROBE, cell);
+}
+
+// src/cpu/mod.rs first_sky_candidate: the first probe of the list, then of anchor's
+// nearest-table row (none for NO_PROBE), other than skip, whose texel cell sees the sky:
+// (that probe or NO_PROBE, first candidate, examined).
+fn first_sky_candidate(list: Candidates, anchor: u32, skip: u32, cell: vec2<u32>) -> vec3<u32> {
     var extension = 0u;
     if (anchor != NO_PROBE) {
         extension = min(params.nearest_candidates, NEAREST_ROW);
@@ -1305,8 +1312,8 @@ fn first_seeing_sky(x: vec3<f32>, direction: vec3<f32>, cell: vec2<u32>) -> vec3
     var first = NO_PROBE;
     var examined = 0u;
     for (var i = 0u; i < list.len + extension; i++) {
-        let q = candidate(list, anchor, NO_PROBE, i);
-        if (q == NO_PROBE) {
+        let q = candidate(list, anchor, skip, i);
+        if (q == NO_PROBE || q == skip) {
             continue;
         }
         if (first == NO_PROBE) {
@@ -1329,16 +1336,10 @@ fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>) -> u32 {
     if (sky_texel(probe, cell)) {
         return probe;
     }
-    let row = min(params.nearest_candidates, NEAREST_ROW);
-    for (var i = 0u; i < origin_list.len + row; i++) {
-        let q = candidate(origin_list, probe, probe, i);
-        if (q == NO_PROBE || q == probe) {
-            continue;
-        }
-        fetches += 1u;
-        if (sky_texel(q, cell)) {
-            return q;
-        }
+    let found = first_sky_candidate(origin_list, probe, probe, cell);
+    fetches += found.z;
+    if (found.x != NO_PROBE) {
+        return found.x;
     }
     return probe;
 }
