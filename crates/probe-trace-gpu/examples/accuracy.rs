@@ -194,7 +194,7 @@ fn rows(
             let s_hiz = TraceSummary::of(&hiz.results);
             let s_two = TraceSummary::of(&two.results);
             println!(
-                "| {label} | {} | {resolution}² | {name} | {variant} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % ({:.2} / {:.2} / {:.2}) | {:.2} % | {:.4} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.2} |",
+                "| {label} | {} | {resolution}² | {name} | {variant} | {} | {:.1} % | {:.1} % | {:.1} % | {:.2} % ({:.2} / {:.2} / {:.2}) | {:.2} % | {:.5} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.2} |",
                 positions.len(),
                 a.rays,
                 pct(a.seen, a.true_hits),

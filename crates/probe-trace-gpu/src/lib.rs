@@ -155,7 +155,10 @@
 //! relaxed rules, taking the first place where the ray goes behind or crosses what it saw (at
 //! edges and back faces too) as the hit, and its radiance there (seed 003 §5.4's environment
 //! map fallback, made local: the probe's texel in the ray's direction only if it sees the ray
-//! leave).
+//! leave). For a mirror ray (no cone) whose guess is where the ray went out of the probe's
+//! sight, the same probe marches on past what it does not see to where the ray next crosses
+//! a stored surface or leaves the scene's bounds (the far guess), and the radiance is the mean
+//! of both guesses' (a guess past the bounds reads the sky): the true end lies between them.
 //!
 //! **Distance ranges.** A bake may give, per texel, the nearest and farthest distance its rays
 //! across the texel found ([`LightField::distance_range`]). A texel whose cone holds geometry

@@ -113,7 +113,10 @@ pub enum RayStatus {
     /// crossing its plane at an edge): `t`, position, normal and radiance are that guess's,
     /// and `probe` the estimating probe. If that probe sees the ray leave, radiance is its
     /// texel in the ray's direction (its sky), `t` and position mark how far the ray was
-    /// verified empty, and the normal is zero.
+    /// verified empty, and the normal is zero. A mirror ray's radiance, where the guess is
+    /// where the ray went out of the probe's sight, is the mean of that guess's and of a far
+    /// guess (the same probe marching on past what it does not see; a guess past the scene's
+    /// bounds reads the sky along the ray).
     Unknown,
 }
 

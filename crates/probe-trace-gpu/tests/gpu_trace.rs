@@ -41,9 +41,32 @@ fn assert_agree(label: &str, gpu: &[RayResult], cpu: &[RayResult]) {
         .zip(cpu)
         .filter(|(g, c)| g.texel_fetches == c.texel_fetches)
         .count();
+    // Radiance too, the UNKNOWN rays' estimates included (the mean of two guesses for
+    // mirror rays).
+    let radiance_close = |status: Option<RayStatus>| {
+        let pairs: Vec<bool> = gpu
+            .iter()
+            .zip(cpu)
+            .filter(|(g, c)| g.status == c.status && status.is_none_or(|s| s == c.status))
+            .map(|(g, c)| {
+                (g.radiance - c.radiance).abs().max_element() <= 1e-4 * (1.0 + c.radiance.length())
+            })
+            .collect();
+        (pairs.iter().filter(|&&b| b).count(), pairs.len())
+    };
+    let (radiance_same, compared) = radiance_close(None);
+    let (unknown_same, unknown) = radiance_close(Some(RayStatus::Unknown));
     eprintln!(
-        "{label}: status {same_status}/{n}, hit positions within 1e-4 m {close}/{}, equal fetch counts {same_fetches}/{n}",
+        "{label}: status {same_status}/{n}, hit positions within 1e-4 m {close}/{}, equal fetch counts {same_fetches}/{n}, radiance within 1e-4 {radiance_same}/{compared} (UNKNOWN estimates {unknown_same}/{unknown})",
         both_hit.len()
+    );
+    assert!(
+        radiance_same as f64 >= 0.999 * compared as f64,
+        "{label}: radiance agrees for {radiance_same} of {compared}"
+    );
+    assert!(
+        unknown_same as f64 >= 0.99 * unknown as f64,
+        "{label}: UNKNOWN estimates' radiance agrees for {unknown_same} of {unknown}"
     );
     assert!(
         same_status as f64 >= 0.999 * n as f64,

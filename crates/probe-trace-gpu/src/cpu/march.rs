@@ -95,6 +95,29 @@ pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     /// meet what the probe saw is taken as a hit — entering behind a texel's surface, or
     /// crossing its plane at an edge or from behind — instead of handing the ray on.
     pub relaxed: bool,
+    /// With `relaxed`, the estimate's far guess ([`March::PastHidden`]): where the ray goes
+    /// behind what the probe saw, the march passes on instead of guessing a hit there.
+    pub pass_hidden: bool,
+    /// The far guess has passed a hidden stretch: a crossing from behind within the
+    /// thickness is then the ray coming back through a surface, not leaving its start. (It
+    /// starts where the near guess did, so from the start.)
+    pub passed_hidden: bool,
+    /// The relaxed march's hit is a guess where the ray went out of sight (not a crossing).
+    pub guessed_hidden: bool,
+}
+
+/// How one probe's march ends a ray it cannot decide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum March {
+    /// Hands it on: UNKNOWN where the ray goes out of the probe's sight.
+    Strict,
+    /// The estimate's near guess: a hit where the ray may first meet what the probe saw
+    /// (goes behind a stored surface, or crosses one at an edge or from behind).
+    FirstContact,
+    /// The estimate's far guess, marched on from a near guess that lost sight of the ray:
+    /// stretches the probe does not see are passed, so the guess is where the ray next
+    /// crosses a stored surface (or comes back through one), or the end of the march (a MISS).
+    PastHidden,
 }
 
 /// `signNotZero` with the `+` side for 0 and −0 (as `probe_octa::sign_not_zero`).
@@ -457,6 +480,9 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
         let (outcome, kind) = self.fine_test_kind(cell, ta, tb);
         self.log.fetch(kind, 0, self.path_position);
+        if self.relaxed && outcome.code == HIT && kind == FetchKind::FineUnknown {
+            self.guessed_hidden = true;
+        }
         outcome
     }
 
@@ -484,7 +510,7 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         } else {
             Outcome::unknown(ta)
         };
-        if ra > far || nearer_edge {
+        if (ra > far || nearer_edge) && !self.pass_hidden {
             return (hidden, FetchKind::FineUnknown);
         }
         let normal = unpack_normal(texel[1]);
@@ -494,6 +520,19 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         let sa = (self.origin + self.direction * ta - center * distance).dot(nv);
         let k = self.direction.dot(nv);
         let sb = sa + (tb - ta) * k;
+        if self.pass_hidden && (ra > far || (sa < -surface.thickness && ra >= near)) {
+            // The far guess: behind what the probe saw the ray passes on, unless it comes
+            // back through the stored surface inside the texel (from behind: it meets it).
+            return if k > 0.0 && sb >= 0.0 {
+                (
+                    Outcome::guess((ta - sa / k).min(tb), cell, texel[1]),
+                    FetchKind::FineHit,
+                )
+            } else {
+                self.passed_hidden = true;
+                (Outcome::CONTINUE, FetchKind::FinePlane)
+            };
+        }
         if sa < -surface.thickness {
             // Behind the plane by more than the thickness where the ray enters the texel:
             // hidden, unless the entry lies nearer than the whole patch (the plane is only
@@ -519,7 +558,9 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             } else {
                 sa - (ta - self.t_min) * k
             };
-            if from < -surface.plane_thickness {
+            if from < -surface.plane_thickness || (self.passed_hidden && sa < 0.0) {
+                // (The far guess, past a hidden stretch: not a ray leaving its start, but one
+                // coming back through the surface from behind.)
                 return (hidden, FetchKind::FineUnknown);
             }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);

@@ -22,7 +22,7 @@ use crate::ray::{
     TraceOptions, TraceRay,
 };
 use crate::tracer::Tracer;
-use march::{CONTINUE, HIT, MISS, ProbeRay, Segment, UNKNOWN, split_segments};
+use march::{CONTINUE, HIT, MISS, March, ProbeRay, Segment, UNKNOWN, split_segments};
 pub use profile::{FetchKind, FetchPhase, FetchProfile, PHASE_WINDOW_TEXELS, PROFILE_LEVELS};
 use profile::{FetchLog, RayObserver};
 use select::Selector;
@@ -272,6 +272,8 @@ struct ProbeAnswer {
     fetches: u32,
     /// Texels along the probe's path where the answer was reached (recorded traces only).
     end_position: f32,
+    /// A relaxed march's HIT is a guess where the ray went out of the probe's sight.
+    guessed_hidden: bool,
 }
 
 /// Traces the ray through one probe from `t_start` (seed 003 Alg. 3 on the probe's segments).
@@ -281,7 +283,7 @@ fn trace_probe<L: FetchLog>(
     probe: u32,
     ray: &TraceRay,
     t_start: f32,
-    relaxed: bool,
+    march: March,
     log: L,
 ) -> ProbeAnswer {
     let origin = Vec3::from(ray.origin) - field.position(probe);
@@ -298,6 +300,7 @@ fn trace_probe<L: FetchLog>(
         normal: 0,
         fetches: 0,
         end_position: 0.0,
+        guessed_hidden: false,
     };
     if origin.length() >= sky {
         return answer;
@@ -322,7 +325,10 @@ fn trace_probe<L: FetchLog>(
         log,
         path_position: 0.0,
         carry_level: 0,
-        relaxed,
+        relaxed: march != March::Strict,
+        pass_hidden: march == March::PastHidden,
+        passed_hidden: march == March::PastHidden,
+        guessed_hidden: false,
     };
     for segment in &segments[..count] {
         let outcome = probe_ray.march_segment(segment);
@@ -334,12 +340,14 @@ fn trace_probe<L: FetchLog>(
                 normal: outcome.normal,
                 fetches: 0,
                 end_position: 0.0,
+                guessed_hidden: false,
             };
             break;
         }
     }
     answer.fetches = probe_ray.fetches;
     answer.end_position = probe_ray.path_position;
+    answer.guessed_hidden = probe_ray.guessed_hidden;
     answer
 }
 
@@ -1021,9 +1029,14 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 fallback = probe;
             }
         }
+        let march = if estimating {
+            March::FirstContact
+        } else {
+            March::Strict
+        };
         let mut answer = match observer.fetch_log() {
-            Some(log) => trace_probe(field, params, probe, ray, t, estimating, log),
-            None => trace_probe(field, params, probe, ray, t, estimating, ()),
+            Some(log) => trace_probe(field, params, probe, ray, t, march, log),
+            None => trace_probe(field, params, probe, ray, t, march, ()),
         };
         fetches += answer.fetches;
         if estimating {
@@ -1034,6 +1047,55 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 record.t = answer.t;
                 record.position = hit.to_array();
                 record.normal = crate::surface::unpack_normal(answer.normal).to_array();
+            }
+            record.probe = probe;
+            if params.glossy_levels == 0 {
+                // A mirror ray (no cone): its true end lies past where the probe loses sight
+                // of it (the near guess above) and, unless hidden there, no farther than where
+                // it next crosses a surface the probe saw (the far guess, marched no farther
+                // than the scene's bounds). The estimate is the mean of the radiance at both;
+                // a guess beyond the bounds (nothing lies there) or a MISS reads the sky
+                // along the ray (BENCHMARKS.md, "Estimates between two guesses").
+                let read = |guess: &ProbeAnswer, fetches: &mut u32| -> Vec3 {
+                    let sky = guess.code == MISS || guess.t > t_exit;
+                    let reader = if sky {
+                        sky_probe(&selector, field, probe, &origin_list, direction, fetches)
+                    } else {
+                        probe
+                    };
+                    let read = ProbeAnswer {
+                        code: if sky { MISS } else { guess.code },
+                        ..*guess
+                    };
+                    let end = origin + direction * guess.t;
+                    Vec3::from(answer_radiance(
+                        field,
+                        params,
+                        reader,
+                        &read,
+                        end - field.position(reader),
+                        direction,
+                        fetches,
+                    ))
+                };
+                let mut radiance = read(&answer, &mut fetches);
+                // Only a near guess where the ray went out of sight has a far guess apart from
+                // it; that march goes on from there.
+                if answer.code == HIT && answer.guessed_hidden {
+                    let bounded = TraceRay {
+                        t_max: ray.t_max.min(t_exit),
+                        ..*ray
+                    };
+                    let (t0, far) = (answer.t, March::PastHidden);
+                    let past = match observer.fetch_log() {
+                        Some(log) => trace_probe(field, params, probe, &bounded, t0, far, log),
+                        None => trace_probe(field, params, probe, &bounded, t0, far, ()),
+                    };
+                    fetches += past.fetches;
+                    radiance = 0.5 * (radiance + read(&past, &mut fetches));
+                }
+                record.radiance = radiance.to_array();
+                break;
             }
             // A filtered estimate blends like an answer: one wrong probe's read is the
             // pixel's whole error otherwise (BENCHMARKS.md, "Filtered glossy").
@@ -1049,7 +1111,6 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 normal,
                 &mut fetches,
             );
-            record.probe = probe;
             break;
         }
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);

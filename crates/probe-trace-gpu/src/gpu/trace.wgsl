@@ -118,8 +118,20 @@ var<private> ray_t_min: f32;
 var<private> fetches: u32;
 // The hi-Z level the previous segment's march ended at.
 var<private> carry_level: u32;
-// The estimate's relaxed march (src/cpu/march.rs ProbeRay::relaxed).
+// The estimate's relaxed march (src/cpu/march.rs ProbeRay::relaxed), and its far guess
+// (ProbeRay::pass_hidden).
 var<private> relaxed: bool;
+var<private> pass_hidden: bool;
+// The far guess has passed a hidden stretch (src/cpu/march.rs ProbeRay::passed_hidden),
+// and the relaxed march's hit is a guess where the ray went out of sight
+// (ProbeRay::guessed_hidden).
+var<private> passed_hidden: bool;
+var<private> guessed_hidden: bool;
+
+// src/cpu/march.rs March.
+const MARCH_STRICT: u32 = 0u;
+const MARCH_FIRST_CONTACT: u32 = 1u;
+const MARCH_PAST_HIDDEN: u32 = 2u;
 
 struct Segment {
     t0: f32,
@@ -413,7 +425,9 @@ fn pass_prefix(lo: f32, n: vec3<f32>, c: f32, ta: f32, tb: f32) -> f32 {
 }
 
 // The estimate's fine test (src/cpu/march.rs, `relaxed`): where the strict test hands the
-// ray on, a guessed hit at the texel's entry; edges and back faces do not stop a crossing.
+// ray on, a guessed hit at the texel's entry (for the far guess, `pass_hidden`, the march
+// passes on behind what the probe saw unless the ray comes back through the stored surface
+// inside the texel); edges and back faces do not stop a crossing.
 fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     let n = params.resolution;
     let texel = geometry[padded_index(n, cur_probe, cell)];
@@ -428,7 +442,8 @@ fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     if (max(ra, rb) < near) {
         return outcome_continue();
     }
-    if (ra > far) {
+    if (ra > far && !pass_hidden) {
+        guessed_hidden = true;
         return Outcome(HIT, ta, cell, texel.y);
     }
     let normal = unpack_normal(texel.y);
@@ -438,8 +453,16 @@ fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     let sa = dot(ray_o + ray_d * ta - center * distance, nv);
     let k = dot(ray_d, nv);
     let sb = sa + (tb - ta) * k;
+    if (pass_hidden && (ra > far || (sa < -surface.thickness && ra >= near))) {
+        if (k > 0.0 && sb >= 0.0) {
+            return Outcome(HIT, min(ta - sa / k, tb), cell, texel.y);
+        }
+        passed_hidden = true;
+        return outcome_continue();
+    }
     if (sa < -surface.thickness) {
         if (ra >= near) {
+            guessed_hidden = true;
             return Outcome(HIT, ta, cell, texel.y);
         }
         return outcome_continue();
@@ -448,7 +471,8 @@ fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         return outcome_continue();
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
-        if (sa < -surface.plane_thickness) {
+        if (sa < -surface.plane_thickness || (passed_hidden && sa < 0.0)) {
+            guessed_hidden = true;
             return Outcome(HIT, ta, cell, texel.y);
         }
         return outcome_continue();
@@ -666,9 +690,12 @@ struct ProbeAnswer {
     normal: u32,
 }
 
-fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, relax: bool) -> ProbeAnswer {
+fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, march: u32) -> ProbeAnswer {
     cur_probe = probe;
-    relaxed = relax;
+    relaxed = march != MARCH_STRICT;
+    pass_hidden = march == MARCH_PAST_HIDDEN;
+    passed_hidden = march == MARCH_PAST_HIDDEN;
+    guessed_hidden = false;
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
     ray_t_min = ray.t_min;
@@ -1344,6 +1371,23 @@ fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>) -> u32 {
     return probe;
 }
 
+// The radiance at one guess of a mirror ray's estimate: the hit's, or for a MISS or a guess
+// beyond the bounds the sky along the ray from a probe whose texel there sees it
+// (src/cpu/mod.rs trace_ray).
+fn estimate_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction: vec3<f32>, origin_list: Candidates, t_exit: f32) -> vec3<f32> {
+    let sky = guess.code == MISS || guess.t > t_exit;
+    if (guess.code == HIT && !sky) {
+        let end = origin + direction * guess.t;
+        return glossy_radiance(probe, end - positions[probe].xyz, false, guess.cell, guess.t);
+    }
+    var reader = probe;
+    if (sky) {
+        reader = sky_probe(probe, origin_list, direction);
+    }
+    let cell = texel_containing(params.resolution, direction);
+    return glossy_radiance(reader, direction, true, cell, guess.t);
+}
+
 fn trace_ray(ray: TraceRay) -> RayRecord {
     fetches = 0u;
     // Nothing lies beyond the geometry bounds (src/cpu/mod.rs trace_ray).
@@ -1369,6 +1413,8 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     var blend = false;
     var blend_hit = false;
     var blend_t = 0.0;
+    // A mirror ray's estimate takes its far guess (src/cpu/mod.rs trace_ray).
+    var far_pass = false;
     var record: RayRecord;
     record.status = UNKNOWN;
     record.probe = NO_PROBE;
@@ -1389,68 +1435,107 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             reselect = false;
         }
         var probe = NO_PROBE;
-        if (tried >= params.max_probes) {
-            estimating = true;
-        } else if (next >= list.len + extension) {
-            if (extended || params.nearest_candidates == 0u) {
+        if (far_pass) {
+            // The far guess of a mirror ray's estimate: the same probe, from the near guess.
+            probe = record.probe;
+        } else {
+            if (tried >= params.max_probes) {
                 estimating = true;
-            } else {
-                anchor = nearest_probe(params.kd_nodes, params.kd_count, here);
-                if (anchor != NO_PROBE) {
-                    extension = min(params.nearest_candidates, NEAREST_ROW);
+            } else if (next >= list.len + extension) {
+                if (extended || params.nearest_candidates == 0u) {
+                    estimating = true;
+                } else {
+                    anchor = nearest_probe(params.kd_nodes, params.kd_count, here);
+                    if (anchor != NO_PROBE) {
+                        extension = min(params.nearest_candidates, NEAREST_ROW);
+                    }
+                    extended = true;
+                    continue;
                 }
-                extended = true;
-                continue;
             }
-        }
-        if (estimating) {
-            for (var i = 0u; i < list.len + extension; i++) {
-                let q = candidate(list, anchor, failed, i);
-                if (q != NO_PROBE && sees_point(q, here, i >= list.len)) {
-                    probe = q;
+            if (estimating) {
+                for (var i = 0u; i < list.len + extension; i++) {
+                    let q = candidate(list, anchor, failed, i);
+                    if (q != NO_PROBE && sees_point(q, here, i >= list.len)) {
+                        probe = q;
+                        break;
+                    }
+                }
+                if (probe == NO_PROBE) {
+                    probe = fallback;
+                }
+                record.t = t;
+                record.position = here;
+                record.probes_tried = tried;
+                if (probe == NO_PROBE) {
                     break;
                 }
-            }
-            if (probe == NO_PROBE) {
-                probe = fallback;
-            }
-            record.t = t;
-            record.position = here;
-            record.probes_tried = tried;
-            if (probe == NO_PROBE) {
-                break;
-            }
-        } else {
-            probe = candidate(list, anchor, failed, next);
-            // At the ray's start, a candidate must see the ray leave (not the surface it
-            // leaves, from behind).
-            var departing = vec3<f32>(0.0);
-            if (t == ray.t_min) {
-                departing = direction;
-            }
-            if (probe == NO_PROBE || !sees_departure(probe, here, departing, next >= list.len)) {
-                next += 1u;
-                continue;
-            }
-            tried += 1u;
-            if (fallback == NO_PROBE) {
-                fallback = probe;
+            } else {
+                probe = candidate(list, anchor, failed, next);
+                // At the ray's start, a candidate must see the ray leave (not the surface it
+                // leaves, from behind).
+                var departing = vec3<f32>(0.0);
+                if (t == ray.t_min) {
+                    departing = direction;
+                }
+                if (probe == NO_PROBE || !sees_departure(probe, here, departing, next >= list.len)) {
+                    next += 1u;
+                    continue;
+                }
+                tried += 1u;
+                if (fallback == NO_PROBE) {
+                    fallback = probe;
+                }
             }
         }
-        var answer = trace_probe(probe, ray, t, estimating);
+        // One call site of the march (and of the estimate's read below): lavapipe inlines
+        // every call, and a second copy of the march slowed every ray.
+        var march = MARCH_STRICT;
+        var march_ray = ray;
+        var t_from = t;
+        if (estimating) {
+            march = MARCH_FIRST_CONTACT;
+        }
+        if (far_pass) {
+            march = MARCH_PAST_HIDDEN;
+            march_ray.t_max = min(ray.t_max, t_exit);
+            t_from = record.t;
+        }
+        var answer = trace_probe(probe, march_ray, t_from, march);
         if (estimating) {
             let at = positions[probe].xyz;
+            let near_hidden = !far_pass && answer.code == HIT && guessed_hidden;
+            if (!far_pass) {
+                if (answer.code == HIT) {
+                    let hit = origin + direction * answer.t;
+                    record.t = answer.t;
+                    record.position = hit;
+                    record.normal = unpack_normal(answer.normal);
+                }
+                record.probe = probe;
+            }
+            if (params.glossy_levels == 0u) {
+                // A mirror ray: the near guess's radiance, or where it lost sight of the ray
+                // the mean with the far guess's, marched on from there no farther than the
+                // scene's bounds (src/cpu/mod.rs trace_ray).
+                let read = estimate_radiance(probe, answer, origin, direction, origin_list, t_exit);
+                if (far_pass) {
+                    record.radiance = 0.5 * (record.radiance + read);
+                    break;
+                }
+                record.radiance = read;
+                if (near_hidden) {
+                    far_pass = true;
+                    continue;
+                }
+                break;
+            }
             if (answer.code == HIT) {
-                let hit = origin + direction * answer.t;
-                record.t = answer.t;
-                record.position = hit;
-                record.normal = unpack_normal(answer.normal);
-                record.radiance = glossy_radiance(probe, hit - at, false, answer.cell, answer.t);
+                record.radiance = glossy_radiance(probe, origin + direction * answer.t - at, false, answer.cell, answer.t);
             } else {
                 let cell = texel_containing(params.resolution, direction);
                 record.radiance = glossy_radiance(probe, direction, true, cell, answer.t);
             }
-            record.probe = probe;
             // A filtered estimate blends like an answer (src/cpu/mod.rs trace_ray).
             blend_hit = answer.code == HIT;
             blend_t = answer.t;
