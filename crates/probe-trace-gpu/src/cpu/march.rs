@@ -96,12 +96,10 @@ pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     /// crossing its plane at an edge or from behind — instead of handing the ray on.
     pub relaxed: bool,
     /// With `relaxed`, the estimate's far guess ([`March::PastHidden`]): where the ray goes
-    /// behind what the probe saw, the march passes on instead of guessing a hit there.
+    /// behind what the probe saw, the march passes on instead of guessing a hit there; and
+    /// as it starts where the near guess lost sight of the ray, a crossing from behind within
+    /// the thickness is the ray coming back through a surface, not leaving its start.
     pub pass_hidden: bool,
-    /// The far guess has passed a hidden stretch: a crossing from behind within the
-    /// thickness is then the ray coming back through a surface, not leaving its start. (It
-    /// starts where the near guess did, so from the start.)
-    pub passed_hidden: bool,
     /// The relaxed march's hit is a guess where the ray went out of sight (not a crossing).
     pub guessed_hidden: bool,
 }
@@ -529,7 +527,6 @@ impl<L: FetchLog> ProbeRay<'_, L> {
                     FetchKind::FineHit,
                 )
             } else {
-                self.passed_hidden = true;
                 (Outcome::CONTINUE, FetchKind::FinePlane)
             };
         }
@@ -558,9 +555,9 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             } else {
                 sa - (ta - self.t_min) * k
             };
-            if from < -surface.plane_thickness || (self.passed_hidden && sa < 0.0) {
-                // (The far guess, past a hidden stretch: not a ray leaving its start, but one
-                // coming back through the surface from behind.)
+            if from < -surface.plane_thickness || (self.pass_hidden && sa < 0.0) {
+                // (The far guess: not a ray leaving its start, but one coming back through
+                // the surface from behind.)
                 return (hidden, FetchKind::FineUnknown);
             }
             return (Outcome::CONTINUE, FetchKind::FineLeaving);

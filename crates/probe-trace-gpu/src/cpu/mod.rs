@@ -327,7 +327,6 @@ fn trace_probe<L: FetchLog>(
         carry_level: 0,
         relaxed: march != March::Strict,
         pass_hidden: march == March::PastHidden,
-        passed_hidden: march == March::PastHidden,
         guessed_hidden: false,
     };
     for segment in &segments[..count] {

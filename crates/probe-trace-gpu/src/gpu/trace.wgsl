@@ -122,10 +122,8 @@ var<private> carry_level: u32;
 // (ProbeRay::pass_hidden).
 var<private> relaxed: bool;
 var<private> pass_hidden: bool;
-// The far guess has passed a hidden stretch (src/cpu/march.rs ProbeRay::passed_hidden),
-// and the relaxed march's hit is a guess where the ray went out of sight
-// (ProbeRay::guessed_hidden).
-var<private> passed_hidden: bool;
+// The relaxed march's hit is a guess where the ray went out of sight
+// (src/cpu/march.rs ProbeRay::guessed_hidden).
 var<private> guessed_hidden: bool;
 
 // src/cpu/march.rs March.
@@ -457,7 +455,6 @@ fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         if (k > 0.0 && sb >= 0.0) {
             return Outcome(HIT, min(ta - sa / k, tb), cell, texel.y);
         }
-        passed_hidden = true;
         return outcome_continue();
     }
     if (sa < -surface.thickness) {
@@ -471,7 +468,7 @@ fn fine_test_relaxed(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         return outcome_continue();
     }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
-        if (sa < -surface.plane_thickness || (passed_hidden && sa < 0.0)) {
+        if (sa < -surface.plane_thickness || (pass_hidden && sa < 0.0)) {
             guessed_hidden = true;
             return Outcome(HIT, ta, cell, texel.y);
         }
@@ -694,7 +691,6 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, march: u32) -> ProbeAnsw
     cur_probe = probe;
     relaxed = march != MARCH_STRICT;
     pass_hidden = march == MARCH_PAST_HIDDEN;
-    passed_hidden = march == MARCH_PAST_HIDDEN;
     guessed_hidden = false;
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
