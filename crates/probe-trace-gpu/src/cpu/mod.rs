@@ -828,6 +828,43 @@ fn bounds_exit(params: &TraceParams, origin: Vec3, direction: Vec3) -> f32 {
     t
 }
 
+/// The radiance where a ray (or a guess of its end) ends ([`end_radiance`]): at a HIT,
+/// `probe`'s read there; at a MISS, or a guess past `t_exit` (nothing lies beyond the scene's
+/// bounds), the sky along the ray from a probe whose texel there sees it ([`sky_probe`]).
+#[allow(clippy::too_many_arguments)]
+fn ray_end_radiance(
+    field: &PackedField,
+    selection: &PackedSelection,
+    params: &TraceParams,
+    selector: &Selector<'_>,
+    origin_list: &select::Candidates,
+    probe: u32,
+    answer: &ProbeAnswer,
+    origin: Vec3,
+    direction: Vec3,
+    t_exit: f32,
+    fetches: &mut u32,
+) -> [f32; 3] {
+    let sky = answer.code == MISS || answer.t > t_exit;
+    let reader = if sky {
+        sky_probe(selector, field, probe, origin_list, direction, fetches)
+    } else {
+        probe
+    };
+    let read = ProbeAnswer {
+        code: if sky { MISS } else { answer.code },
+        ..*answer
+    };
+    let normal = if read.code == HIT {
+        crate::surface::unpack_normal(read.normal)
+    } else {
+        Vec3::ZERO
+    };
+    end_radiance(
+        field, selection, params, reader, &read, origin, direction, normal, fetches,
+    )
+}
+
 /// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
 /// (one fetch), else the first of `origin_list` (the selection's candidates at the ray's
 /// origin) and then of `probe`'s row of the nearest-probe table whose texel there does (a
@@ -1055,29 +1092,22 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 // than the scene's bounds). The estimate is the mean of the radiance at both;
                 // a guess beyond the bounds (nothing lies there) or a MISS reads the sky
                 // along the ray (BENCHMARKS.md, "Estimates between two guesses").
-                let read = |guess: &ProbeAnswer, fetches: &mut u32| -> Vec3 {
-                    let sky = guess.code == MISS || guess.t > t_exit;
-                    let reader = if sky {
-                        sky_probe(&selector, field, probe, &origin_list, direction, fetches)
-                    } else {
-                        probe
-                    };
-                    let read = ProbeAnswer {
-                        code: if sky { MISS } else { guess.code },
-                        ..*guess
-                    };
-                    let end = origin + direction * guess.t;
-                    Vec3::from(answer_radiance(
+                let mut read = |guess: &ProbeAnswer| {
+                    Vec3::from(ray_end_radiance(
                         field,
+                        selection,
                         params,
-                        reader,
-                        &read,
-                        end - field.position(reader),
+                        &selector,
+                        &origin_list,
+                        probe,
+                        guess,
+                        origin,
                         direction,
-                        fetches,
+                        t_exit,
+                        &mut fetches,
                     ))
                 };
-                let mut radiance = read(&answer, &mut fetches);
+                let mut radiance = read(&answer);
                 // Only a near guess where the ray went out of sight has a far guess apart from
                 // it; that march goes on from there.
                 if answer.code == HIT && answer.guessed_hidden {
@@ -1090,8 +1120,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
                         Some(log) => trace_probe(field, params, probe, &bounded, t0, far, log),
                         None => trace_probe(field, params, probe, &bounded, t0, far, ()),
                     };
+                    radiance = 0.5 * (radiance + read(&past));
                     fetches += past.fetches;
-                    radiance = 0.5 * (radiance + read(&past, &mut fetches));
                 }
                 record.radiance = radiance.to_array();
                 break;
@@ -1132,27 +1162,17 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 Vec3::ZERO
             };
             // A MISS reads the sky along the ray, from a probe whose texel there sees it.
-            let reader = if answer.code == MISS {
-                sky_probe(
-                    &selector,
-                    field,
-                    probe,
-                    &origin_list,
-                    direction,
-                    &mut fetches,
-                )
-            } else {
-                probe
-            };
-            let radiance = end_radiance(
+            let radiance = ray_end_radiance(
                 field,
                 selection,
                 params,
-                reader,
+                &selector,
+                &origin_list,
+                probe,
                 &answer,
                 origin,
                 direction,
-                normal,
+                f32::MAX,
                 &mut fetches,
             );
             record.status = answer.code;

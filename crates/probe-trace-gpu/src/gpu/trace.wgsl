@@ -1367,10 +1367,11 @@ fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>) -> u32 {
     return probe;
 }
 
-// The radiance at one guess of a mirror ray's estimate: the hit's, or for a MISS or a guess
-// beyond the bounds the sky along the ray from a probe whose texel there sees it
-// (src/cpu/mod.rs trace_ray).
-fn estimate_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction: vec3<f32>, origin_list: Candidates, t_exit: f32) -> vec3<f32> {
+// The radiance where a ray (or a guess of its end) ends: at a HIT the probe's read there; at a
+// MISS, or a guess past t_exit (nothing lies beyond the bounds), the sky along the ray from a
+// probe whose texel there sees it (src/cpu/mod.rs ray_end_radiance; the blend of cones
+// follows after the ray loop).
+fn ray_end_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction: vec3<f32>, origin_list: Candidates, t_exit: f32) -> vec3<f32> {
     let sky = guess.code == MISS || guess.t > t_exit;
     if (guess.code == HIT && !sky) {
         let end = origin + direction * guess.t;
@@ -1514,7 +1515,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 // A mirror ray: the near guess's radiance, or where it lost sight of the ray
                 // the mean with the far guess's, marched on from there no farther than the
                 // scene's bounds (src/cpu/mod.rs trace_ray).
-                let read = estimate_radiance(probe, answer, origin, direction, origin_list, t_exit);
+                let read = ray_end_radiance(probe, answer, origin, direction, origin_list, t_exit);
                 if (far_pass) {
                     record.radiance = 0.5 * (record.radiance + read);
                     break;
@@ -1552,13 +1553,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             var normal = vec3<f32>(0.0);
             if (answer.code == HIT) {
                 normal = unpack_normal(answer.normal);
-                record.radiance = glossy_radiance(probe, hit - positions[probe].xyz, false, answer.cell, answer.t);
-            } else {
-                // The sky along the ray, from a probe whose texel there sees it.
-                let reader = sky_probe(probe, origin_list, direction);
-                let cell = texel_containing(params.resolution, direction);
-                record.radiance = glossy_radiance(reader, direction, true, cell, answer.t);
             }
+            // A MISS reads the sky along the ray, from a probe whose texel there sees it.
+            record.radiance = ray_end_radiance(probe, answer, origin, direction, origin_list, F32_MAX);
             record.status = answer.code;
             record.t = answer.t;
             record.position = hit;
