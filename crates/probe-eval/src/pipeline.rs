@@ -331,7 +331,8 @@ pub fn light_field(baked: &ProbeBake) -> LightField<'_> {
 /// Bytes of a bake as the tracer holds it, split as seed 000's Table 5.2: the distance probes
 /// (per padded texel a 16-byte geometry record — distance, normal, depth bounds — plus the hi-Z
 /// pyramid, 8 bytes per coarse texel) and the other textures (radiance, 12 bytes per padded
-/// texel; irradiance and distance moments for diffuse shading).
+/// texel, and the tracer's sky map, 12 bytes per direction texel once; irradiance and
+/// distance moments for diffuse shading).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ProbeMemory {
     /// Geometry records and the min/max pyramid.
@@ -360,7 +361,8 @@ impl ProbeMemory {
             / probes.max(1);
         ProbeMemory {
             distance_bytes: probes * (padded * 16 + pyramid * 8),
-            other_bytes: probes * (padded * 12 + per_probe_other),
+            // Plus the sky map the tracer packs once for all probes (N² radiance texels).
+            other_bytes: probes * (padded * 12 + per_probe_other) + n * n * 12,
         }
     }
 }

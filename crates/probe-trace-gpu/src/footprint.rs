@@ -124,7 +124,9 @@ impl DeviceFootprint {
                 },
                 DeviceBuffer {
                     name: "radiance",
-                    bytes: (texels + glossy_texels) * RADIANCE_TEXEL_BYTES,
+                    // The probes' maps, their glossy levels, then the sky map (N² texels).
+                    bytes: (texels + glossy_texels + u64::from(resolution).pow(2))
+                        * RADIANCE_TEXEL_BYTES,
                     lower: LOWER_PROBES_OR_RESOLUTION,
                 },
                 DeviceBuffer {

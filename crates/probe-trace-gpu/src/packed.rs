@@ -74,6 +74,9 @@ pub(crate) struct PackedField {
     pub glossy_offsets: [u32; MAX_GLOSSY_LEVELS + 1],
     /// `LightField::geometry_bounds`, widened by [`BOUNDS_MARGIN`]: `(min, max)`.
     pub bounds: Option<(Vec3, Vec3)>,
+    /// Start texel in `radiance` of the sky map ([`pack_sky_map`]): `N²` interior texels,
+    /// row-major, unpadded.
+    pub sky_map: u32,
 }
 
 /// How far the geometry bounds are widened on every side, relative to their diagonal (plus
@@ -89,6 +92,80 @@ pub(crate) fn glossy_level_count(n: u32, requested: u32) -> u32 {
     requested
         .min(n.trailing_zeros().saturating_sub(1))
         .min(MAX_GLOSSY_LEVELS as u32)
+}
+
+/// The sky map, appended to `radiance` (3 floats per texel; returns its start texel): per
+/// interior direction texel of resolution `n`, the mean radiance of that texel over the
+/// probes that saw nothing but sky there (sky at the centre, no nearer edge in `geometry`:
+/// a texel at a silhouette holds part of the surface's radiance). The sky lies at infinity,
+/// so every probe that sees it in a direction sees the same radiance: the map is what a MISS
+/// reads where none of the probes it asks sees clear sky along the ray (a ray that left a
+/// room through its open side at an angle at which every probe inside sees a wall or an
+/// edge; before the map it read that wall). Texels no probe sees as clear sky take the mean
+/// of their filled neighbours, ring by ring; zero if no probe sees any.
+fn pack_sky_map(
+    n: u32,
+    probes: usize,
+    geometry: &[[u32; 4]],
+    source: &[Vec3],
+    sky: f32,
+    radiance: &mut Vec<f32>,
+) -> u32 {
+    let start = (radiance.len() / 3) as u32;
+    let side = n as usize;
+    let mut sum = vec![Vec3::ZERO; side * side];
+    let mut filled = vec![false; side * side];
+    let mut count = vec![0u32; side * side];
+    for probe in 0..probes as u32 {
+        for iy in 0..n {
+            for ix in 0..n {
+                let i = padded_index(n, probe, ix, iy);
+                let texel = geometry[i];
+                if f32::from_bits(texel[0] & !SIGN_BIT) >= sky && texel[3] & SIGN_BIT == 0 {
+                    let cell = iy as usize * side + ix as usize;
+                    sum[cell] += source[i];
+                    count[cell] += 1;
+                }
+            }
+        }
+    }
+    for cell in 0..side * side {
+        if count[cell] > 0 {
+            sum[cell] /= count[cell] as f32;
+            filled[cell] = true;
+        }
+    }
+    // Grow the filled texels into the empty ones, one ring at a time.
+    if filled.iter().any(|&f| f) {
+        while filled.iter().any(|&f| !f) {
+            let (before, was) = (sum.clone(), filled.clone());
+            for y in 0..side {
+                for x in 0..side {
+                    if was[y * side + x] {
+                        continue;
+                    }
+                    let (mut total, mut k) = (Vec3::ZERO, 0u32);
+                    for (dx, dy) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        if nx < 0 || ny < 0 || nx >= side as i64 || ny >= side as i64 {
+                            continue;
+                        }
+                        let j = ny as usize * side + nx as usize;
+                        if was[j] {
+                            total += before[j];
+                            k += 1;
+                        }
+                    }
+                    if k > 0 {
+                        sum[y * side + x] = total / k as f32;
+                        filled[y * side + x] = true;
+                    }
+                }
+            }
+        }
+    }
+    radiance.extend(sum.iter().flat_map(|c| c.to_array()));
+    start
 }
 
 /// Padded texels of the glossy levels `1..=levels` of one probe of resolution `n`.
@@ -578,7 +655,9 @@ impl PackedField {
         let glossy_levels = glossy_level_count(n, options.glossy_levels);
         check_addressable(
             "radiance",
-            probes as u64 * (per_probe + glossy_texels_per_probe(n, glossy_levels)) as u64 * 3,
+            (probes as u64 * (per_probe + glossy_texels_per_probe(n, glossy_levels)) as u64
+                + u64::from(n) * u64::from(n))
+                * 3,
             4,
         )?;
         let mut radiance: Vec<f32> = field.radiance.iter().flat_map(|c| c.to_array()).collect();
@@ -672,6 +751,7 @@ impl PackedField {
                 }
             }
         });
+        let sky_map = pack_sky_map(n, probes, &geometry, field.radiance, sky, &mut radiance);
         Ok(Self {
             resolution: n,
             probe_count: probes as u32,
@@ -690,6 +770,7 @@ impl PackedField {
             glossy_levels,
             glossy_offsets,
             bounds,
+            sky_map,
         })
     }
 
@@ -1236,7 +1317,7 @@ impl PackedIrradiance {
     }
 }
 
-/// The trace pass's uniform block (336 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
+/// The trace pass's uniform block (352 bytes). WGSL mirror `TraceParams` in `gpu/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub(crate) struct TraceParams {
@@ -1284,6 +1365,11 @@ pub(crate) struct TraceParams {
     pub bounds_min: [f32; 4],
     /// The geometry bounds' max corner.
     pub bounds_max: [f32; 4],
+    /// Start texel of the sky map in the radiance buffer ([`PackedField::sky_map`]).
+    pub sky_map: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// The diffuse pass's uniform block (128 bytes). WGSL mirror `DiffuseParams` in
@@ -1449,6 +1535,10 @@ pub(crate) fn trace_params(
         glossy_offsets,
         bounds_min,
         bounds_max,
+        sky_map: field.sky_map,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
     })
 }
 
@@ -1729,6 +1819,62 @@ mod tests {
             let sampled = flags_in_room_sampled(p, 64, true);
             eprintln!("{p}: with distance ranges {sampled:?}");
             assert_eq!(sampled, (farther, nearer, grazing), "{p}");
+        }
+    }
+
+    proptest::proptest! {
+        /// The sky map holds, per direction, the mean of the clear sky texels there (sky at
+        /// the centre, no nearer edge); elsewhere a value within the range of those means
+        /// (grown from neighbours); zero when no probe sees clear sky anywhere. Texels with
+        /// a surface, or sky beside one, never enter it.
+        #[test]
+        fn sky_map_is_the_mean_of_clear_sky(
+            kinds in proptest::collection::vec(0u8..4, 3 * 8 * 8),
+            values in proptest::collection::vec(0.0f32..10.0, 3 * 8 * 8),
+        ) {
+            let (n, probes, sky) = (8u32, 3usize, 100.0f32);
+            let side = n as usize;
+            let mut geometry = vec![[0u32; 4]; probes * padded_len(n)];
+            let mut source = vec![Vec3::ZERO; probes * padded_len(n)];
+            // Per texel: 0 a surface, 1 clear sky, 2 sky with a nearer edge, 3 clear sky.
+            let (mut sum, mut count) = (vec![0.0f32; side * side], vec![0u32; side * side]);
+            for probe in 0..probes {
+                for cell in 0..side * side {
+                    let k = kinds[probe * side * side + cell];
+                    let v = values[probe * side * side + cell];
+                    let i = padded_index(n, probe as u32, (cell % side) as u32, (cell / side) as u32);
+                    let distance = if k == 0 { 1.0f32 } else { sky };
+                    let edge = if k == 2 { SIGN_BIT } else { 0 };
+                    geometry[i] = [distance.to_bits(), 0, 0, 2.0f32.to_bits() | edge];
+                    source[i] = Vec3::splat(v);
+                    if k == 1 || k == 3 {
+                        sum[cell] += v;
+                        count[cell] += 1;
+                    }
+                }
+            }
+            let mut radiance = vec![7.0f32; 6];
+            let start = pack_sky_map(n, probes, &geometry, &source, sky, &mut radiance);
+            proptest::prop_assert_eq!(start, 2);
+            proptest::prop_assert_eq!(radiance.len(), 6 + 3 * side * side);
+            let means: Vec<f32> = (0..side * side)
+                .filter(|&c| count[c] > 0)
+                .map(|c| sum[c] / count[c] as f32)
+                .collect();
+            let lo = means.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = means.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            for cell in 0..side * side {
+                let texel = &radiance[6 + 3 * cell..9 + 3 * cell];
+                proptest::prop_assert!(texel[0] == texel[1] && texel[1] == texel[2]);
+                if count[cell] > 0 {
+                    let mean = sum[cell] / count[cell] as f32;
+                    proptest::prop_assert!((texel[0] - mean).abs() <= 1e-5 * (1.0 + mean));
+                } else if means.is_empty() {
+                    proptest::prop_assert_eq!(texel[0], 0.0);
+                } else {
+                    proptest::prop_assert!(texel[0] >= lo - 1e-4 && texel[0] <= hi + 1e-4);
+                }
+            }
         }
     }
 }

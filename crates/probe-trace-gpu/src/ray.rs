@@ -145,8 +145,9 @@ pub struct RayResult {
     pub position: Vec3,
     /// The stored surface normal at the hit (zero unless Hit).
     pub normal: Vec3,
-    /// Radiance stored for the hit point (Hit), the sky along the ray from a probe that sees
-    /// the sky that way (Miss), or an estimate (Unknown).
+    /// Radiance of the hit point read by the probe that sees it best (Hit: the answering
+    /// probe or one of its nearest), the sky along the ray from a probe that sees clear sky
+    /// that way, else the mean of those that do (Miss), or an estimate (Unknown).
     pub radiance: Vec3,
     /// The probe that answered (Hit, Miss) or gave the fallback radiance (Unknown); `None`
     /// when no probe was tried.

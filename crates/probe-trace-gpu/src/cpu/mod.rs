@@ -445,10 +445,11 @@ impl TexelPlane {
 }
 
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
-/// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
+/// holds `v` within the plane's thickness) or, with `sky`, is clear sky ([`clear_sky_texel`];
+/// one fetch).
 fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
     if sky {
-        return sky_texel(field, probe, texel);
+        return clear_sky_texel(field, probe, texel);
     }
     TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
 }
@@ -506,6 +507,12 @@ fn filtered_radiance(
         if weight > 0.0 {
             return (sum / weight).to_array();
         }
+    }
+    if sky {
+        // No clear sky around: the sky map's (a texel at a silhouette holds the surface's
+        // radiance too).
+        let direction = v.normalize_or_zero();
+        return sky_map_radiance(field, direction, fetches);
     }
     *fetches += 1;
     radiance(field, probe, cell)
@@ -693,7 +700,7 @@ fn blended_radiance(
         } else {
             *fetches += 1;
             let cell = direction_cell(field.resolution, direction);
-            if !sky_texel(field, probe, cell) {
+            if !clear_sky_texel(field, probe, cell) {
                 continue;
             }
             let read = glossy_radiance(field, params, probe, direction, true, cell, t, fetches);
@@ -828,9 +835,10 @@ fn bounds_exit(params: &TraceParams, origin: Vec3, direction: Vec3) -> f32 {
     t
 }
 
-/// The radiance where a ray (or a guess of its end) ends ([`end_radiance`]): at a HIT,
-/// `probe`'s read there; at a MISS, or a guess past `t_exit` (nothing lies beyond the scene's
-/// bounds), the sky along the ray from a probe whose texel there sees it ([`sky_probe`]).
+/// The radiance where a ray (or a guess of its end) ends ([`end_radiance`]): at a HIT, the
+/// read there of the probe that sees it best ([`hit_reader`]); at a MISS, or a guess past
+/// `t_exit` (nothing lies beyond the scene's bounds), the sky along the ray from a probe whose
+/// texel there sees clear sky ([`sky_probe`]), else the sky map's ([`sky_map_radiance`]).
 #[allow(clippy::too_many_arguments)]
 fn ray_end_radiance(
     field: &PackedField,
@@ -846,15 +854,41 @@ fn ray_end_radiance(
     fetches: &mut u32,
 ) -> [f32; 3] {
     let sky = answer.code == MISS || answer.t > t_exit;
-    let reader = if sky {
+    let mut reader = if sky {
         sky_probe(selector, field, probe, origin_list, direction, fetches)
     } else {
         probe
     };
-    let read = ProbeAnswer {
+    if reader == NO_PROBE {
+        // No probe asked sees the sky that way: the sky map's, blended like a probe's read.
+        let own = sky_map_radiance(field, direction, fetches);
+        let end = origin + direction * answer.t;
+        return blended_radiance(
+            field,
+            selection,
+            params,
+            origin,
+            direction,
+            false,
+            end,
+            Vec3::ZERO,
+            answer.t,
+            own,
+            fetches,
+        );
+    }
+    let mut read = ProbeAnswer {
         code: if sky { MISS } else { answer.code },
         ..*answer
     };
+    if read.code == HIT {
+        // Read by the probe that sees the hit best.
+        let hit = origin + direction * answer.t;
+        let normal = crate::surface::unpack_normal(read.normal);
+        (reader, read.cell) = hit_reader(
+            field, selector, probe, read.cell, hit, normal, origin, fetches,
+        );
+    }
     let normal = if read.code == HIT {
         crate::surface::unpack_normal(read.normal)
     } else {
@@ -865,10 +899,90 @@ fn ray_end_radiance(
     )
 }
 
-/// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
-/// (one fetch), else the first of `origin_list` (the selection's candidates at the ray's
-/// origin) and then of `probe`'s row of the nearest-probe table whose texel there does (a
-/// probe inside a room sees a wall where a ray left through a window), else `probe`.
+/// The probe that reads a HIT's radiance and its texel there: of `probe`, the one that
+/// answered (its texel `cell`), and its nearest probes (its row of the nearest-probe table)
+/// that see the point (the texel holding its direction has a plane that holds it) from the
+/// side the ray came from, the one that sees it most squarely for its distance: the cosine between the
+/// surface's normal and the probe's view over the distance, a quarter for an edge texel (the
+/// hybrid tracer's score, [`look_up_point`]). The probe that finished the ray often sees the
+/// hit from far off or at a grazing angle, where its texels stretch along the surface and mix
+/// what lies beside the point: a probe a few centimetres below the Cornell box's ceiling put
+/// the light's radiance on the ceiling beside it, a smear the width of the light
+/// (BENCHMARKS.md, "Who reads a hit"). One fetch per candidate examined.
+#[allow(clippy::too_many_arguments, reason = "one hit and where to read it")]
+fn hit_reader(
+    field: &PackedField,
+    selector: &Selector<'_>,
+    probe: u32,
+    cell: UVec2,
+    hit: Vec3,
+    normal: Vec3,
+    origin: Vec3,
+    fetches: &mut u32,
+) -> (u32, UVec2) {
+    // The surface's side the ray came from.
+    let side = if normal.dot(origin - hit) >= 0.0 {
+        normal
+    } else {
+        -normal
+    };
+    let view = |q: u32| {
+        let v = hit - field.position(q);
+        let r = v.length();
+        if r > 0.0 {
+            (-side.dot(v) / r, r)
+        } else {
+            (0.0, 0.0)
+        }
+    };
+    let edge = |record: [u32; 4]| {
+        if (record[0] | record[3]) & crate::packed::SIGN_BIT != 0 {
+            0.25
+        } else {
+            1.0
+        }
+    };
+    let (facing, r) = view(probe);
+    if r == 0.0 || side == Vec3::ZERO {
+        return (probe, cell);
+    }
+    *fetches += 1;
+    let own = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
+    let mut best = (probe, cell, facing.max(0.0) / r * edge(own));
+    // The answering probe's row of the nearest-probe table: a table read, where the
+    // selection's search at the hit (as good on the Cornell box) made every ray on lavapipe
+    // 40 % slower (one more inlined copy of the selection).
+    let row = select::Candidates::default();
+    for i in 0..NEAREST_ROW {
+        let q = selector.candidate(&row, probe, NO_PROBE, i);
+        if q == NO_PROBE || q == probe {
+            continue;
+        }
+        let (facing, r) = view(q);
+        // Even an inner texel could not beat the best: no fetch.
+        if facing <= 0.0 || facing / r <= best.2 {
+            continue;
+        }
+        let v = hit - field.position(q);
+        let texel = direction_cell(field.resolution, v / r);
+        *fetches += 1;
+        let Some(plane) = TexelPlane::of(field, q, texel) else {
+            continue;
+        };
+        let score = facing / r * edge(plane.record);
+        if plane.holds(v) && score > best.2 {
+            best = (q, texel, score);
+        }
+    }
+    (best.0, best.1)
+}
+
+/// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees clear
+/// sky ([`clear_sky_texel`], one fetch), else the first of `origin_list` (the selection's
+/// candidates at the ray's origin) and then of `probe`'s row of the nearest-probe table whose
+/// texel there does (a probe inside a room sees a wall where a ray left through a window),
+/// else `NO_PROBE` (the ray reads the sky map, [`sky_map_radiance`]: none of these probes sees
+/// clear sky that way; before the map such a ray read a wall or a silhouette's texel).
 fn sky_probe(
     selector: &Selector<'_>,
     field: &PackedField,
@@ -879,12 +993,26 @@ fn sky_probe(
 ) -> u32 {
     let cell = direction_cell(field.resolution, direction);
     *fetches += 1;
-    if sky_texel(field, probe, cell) {
+    if clear_sky_texel(field, probe, cell) {
         return probe;
     }
     let (sky, _, examined) = first_sky_candidate(selector, field, origin_list, probe, probe, cell);
     *fetches += examined;
-    if sky != NO_PROBE { sky } else { probe }
+    sky
+}
+
+/// The sky map's radiance along `direction` (one fetch; `PackedField::sky_map`): the mean
+/// over the probes that see the sky that way, for a MISS none of whose probes does
+/// (`gpu/trace.wgsl`'s `sky_map_radiance`).
+fn sky_map_radiance(field: &PackedField, direction: Vec3, fetches: &mut u32) -> [f32; 3] {
+    let cell = direction_cell(field.resolution, direction);
+    let i = 3 * (field.sky_map + cell.y * field.resolution + cell.x) as usize;
+    *fetches += 1;
+    [
+        field.radiance[i],
+        field.radiance[i + 1],
+        field.radiance[i + 2],
+    ]
 }
 
 /// Whether `probe` sees the sky towards `exit`, where a ray it verified leaves the geometry
@@ -909,6 +1037,16 @@ fn sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
     f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
 }
 
+/// Whether interior texel `cell` of `probe` saw nothing but sky (one fetch): sky at its
+/// centre and no nearer edge ([`crate::packed::TexelBounds`]: no surface beside it, none
+/// among the baker's samples inside it). Only such a texel's radiance is the sky's: one at a
+/// silhouette holds part of the surface's. What sky radiance is read from.
+fn clear_sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
+    let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
+    f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
+        && texel[3] & crate::packed::SIGN_BIT == 0
+}
+
 /// The first of the selection's candidates at `x`, then of the probes nearest `x`, whose
 /// interior texel `cell` sees the sky ([`first_sky_candidate`]).
 fn first_seeing_sky(
@@ -924,7 +1062,7 @@ fn first_seeing_sky(
 }
 
 /// The first probe of `list`, then of `anchor`'s row of the nearest-probe table (none for
-/// `NO_PROBE`), other than `skip`, whose interior texel `cell` sees the sky ([`sky_texel`],
+/// `NO_PROBE`), other than `skip`, whose interior texel `cell` sees clear sky ([`clear_sky_texel`],
 /// one fetch each): `(that probe or NO_PROBE, the first candidate, candidates examined)`
 /// (`gpu/trace.wgsl`'s `first_sky_candidate` step for step).
 fn first_sky_candidate(
@@ -950,7 +1088,7 @@ fn first_sky_candidate(
             first = q;
         }
         examined += 1;
-        if sky_texel(field, q, cell) {
+        if clear_sky_texel(field, q, cell) {
             return (q, first, examined);
         }
     }
@@ -1161,7 +1299,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
             } else {
                 Vec3::ZERO
             };
-            // A MISS reads the sky along the ray, from a probe whose texel there sees it.
+            // A HIT is read by the probe that sees it best; a MISS reads the sky along the
+            // ray, from a probe whose texel there sees clear sky (else the sky map).
             let radiance = ray_end_radiance(
                 field,
                 selection,
@@ -1213,9 +1352,10 @@ pub(crate) fn trace_ray<O: RayObserver>(
 /// and the texel holding the point's direction shows a surface whose plane holds the point
 /// within the plane's thickness along its normal (one fetch). The best such probe, by the
 /// cosine of its view of the surface over its distance (edge texels weighed a quarter),
-/// answers HIT with the blend of its texels around the point ([`filtered_radiance`]). If none sees it: UNKNOWN, answered by the candidate whose texel's
-/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction from
-/// the first candidate (own, then nearest) whose texel there is sky.
+/// answers HIT with the blend of its texels around the point ([`filtered_radiance`]). If none
+/// sees it: UNKNOWN, answered by the candidate whose texel's distance comes closest to the
+/// point's. Escaped rays: MISS, the sky along the direction from the first candidate (own,
+/// then nearest) whose texel there is clear sky, else the sky map's ([`sky_map_radiance`]).
 pub(crate) fn look_up_point(
     field: &PackedField,
     selection: &PackedSelection,
@@ -1238,7 +1378,7 @@ pub(crate) fn look_up_point(
     if query.surface == 0 {
         // The sky along the ray: from the first candidate whose texel in that direction sees
         // the sky (a probe inside a room sees a wall there, whatever the ray left through),
-        // else the first candidate's texel.
+        // else the sky map's.
         let cell = direction_cell(field.resolution, direction);
         let (sky, first, examined) = first_seeing_sky(&selector, field, x, direction, cell);
         let mut fetches = examined;
@@ -1248,8 +1388,7 @@ pub(crate) fn look_up_point(
             record.radiance = if sky != NO_PROBE {
                 filtered_radiance(field, probe, direction, true, cell, &mut fetches)
             } else {
-                fetches += 1;
-                radiance(field, probe, cell)
+                sky_map_radiance(field, direction, &mut fetches)
             };
             record.probe = probe;
             record.probes_tried = examined;

@@ -51,7 +51,7 @@ const MAX_CHUNK: usize = 1 << 20;
 ///
 /// | binding | type | holds |
 /// |---|---|---|
-/// | 0 | uniform | the trace parameters (`TraceParams` in the WGSL, 336 B): options, selection header, ray count and threads per dispatch row; written by [`GpuTracer::bind_trace`] |
+/// | 0 | uniform | the trace parameters (`TraceParams` in the WGSL, 352 B): options, selection header, ray count and threads per dispatch row; written by [`GpuTracer::bind_trace`] |
 /// | 1 | storage, read | the rays, [`TraceRay`] (32 B each) |
 /// | 2 | storage, read-write | the results, [`RayRecord`] (64 B each), one per ray in order |
 /// | 3 | storage, read | probe centres, `vec4<f32>` per probe |

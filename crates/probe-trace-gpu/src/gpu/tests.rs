@@ -167,6 +167,9 @@ fn shared_structs_match_the_wgsl_layout() {
             ),
             ("glossy_blend", offset_of!(TraceParams, glossy_blend)),
             ("glossy_offsets", offset_of!(TraceParams, glossy_offsets)),
+            ("bounds_min", offset_of!(TraceParams, bounds_min)),
+            ("bounds_max", offset_of!(TraceParams, bounds_max)),
+            ("sky_map", offset_of!(TraceParams, sky_map)),
         ],
     );
     let diffuse = parse("diffuse", DIFFUSE_WGSL);
