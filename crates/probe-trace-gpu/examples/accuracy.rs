@@ -31,11 +31,12 @@ use probe_index::{
 };
 use probe_scene::{Camera, Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, SurfaceQuery, TraceMethod,
-    TraceOptions, TraceSummary, Tracer,
+    CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, TraceMethod, TraceOptions,
+    TraceSummary, Tracer,
 };
 use support::{
-    Bake, accuracy, albedo_shade, footprint, mini_capture, reflection_rays, to_trace_rays,
+    Bake, accuracy, albedo_shade, footprint, hit_queries, mini_capture, reflection_rays,
+    to_trace_rays,
 };
 
 fn header() {
@@ -103,14 +104,7 @@ fn rows(
     let t = Instant::now();
     let hits = scene.closest_hits(rays, f32::INFINITY);
     let bvh = t.elapsed();
-    let queries: Vec<SurfaceQuery> = rays
-        .iter()
-        .zip(&hits)
-        .map(|(ray, hit)| match hit {
-            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
-            None => SurfaceQuery::escaped(ray.origin, ray.direction),
-        })
-        .collect();
+    let queries = hit_queries(rays, &hits);
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     let pct = |x: usize, of: usize| 100.0 * x as f64 / of.max(1) as f64;
     for &name in selectors {

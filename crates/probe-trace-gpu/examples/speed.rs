@@ -22,10 +22,10 @@ use glam::Vec3;
 use probe_index::ProbeGrid;
 use probe_scene::{Ray, Scene};
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, GpuContext, GpuTracer, ProbeSelection, RayResult, SurfaceQuery,
-    TraceMethod, TraceOptions, TraceSummary, Tracer,
+    CpuTracer, FieldOptions, GpuContext, GpuTracer, ProbeSelection, RayResult, TraceMethod,
+    TraceOptions, TraceSummary, Tracer,
 };
-use support::{albedo_shade, mini_capture, reflection_rays, to_trace_rays};
+use support::{albedo_shade, hit_queries, mini_capture, reflection_rays, to_trace_rays};
 
 fn options(method: TraceMethod) -> TraceOptions {
     TraceOptions {
@@ -173,14 +173,7 @@ fn main() {
     };
     let _ = bvh_time(&bvh_rays[..4096.min(bvh_rays.len())]);
     let (hits, bvh) = bvh_time(&bvh_rays);
-    let queries: Vec<SurfaceQuery> = bvh_rays
-        .iter()
-        .zip(&hits)
-        .map(|(ray, hit)| match hit {
-            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
-            None => SurfaceQuery::escaped(ray.origin, ray.direction),
-        })
-        .collect();
+    let queries = hit_queries(&bvh_rays, &hits);
     let defaults = TraceOptions::default();
     gpu.look_up(&gpu_field, &queries[..4096.min(queries.len())], &defaults)
         .unwrap();

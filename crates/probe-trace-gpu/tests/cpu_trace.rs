@@ -10,12 +10,12 @@ use probe_index::{
 use probe_scene::{Material, Ray, Scene, Triangle};
 use probe_testdata::Lcg;
 use probe_trace_gpu::{
-    CpuTracer, FieldOptions, ProbeSelection, RayStatus, SurfaceQuery, TraceMethod, TraceOptions,
-    TraceRay, TraceSummary, Tracer,
+    CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
+    TraceSummary, Tracer,
 };
 use support::{
-    accuracy, albedo_shade, camera_rays, cpu_grid_field, mini_capture, reflection_rays,
-    to_trace_rays,
+    accuracy, albedo_shade, camera_rays, cpu_grid_field, hit_queries, mini_capture,
+    reflection_rays, to_trace_rays,
 };
 
 /// A quad as two triangles, wound so that its normal points along `facing`.
@@ -681,14 +681,7 @@ fn hits_are_read_by_the_probe_that_sees_them_best() {
         .unwrap()
         .results;
     let hits = scene.closest_hits(&rays, f32::INFINITY);
-    let queries: Vec<SurfaceQuery> = rays
-        .iter()
-        .zip(&hits)
-        .map(|(ray, hit)| match hit {
-            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
-            None => SurfaceQuery::escaped(ray.origin, ray.direction),
-        })
-        .collect();
+    let queries = hit_queries(&rays, &hits);
     let looked = tracer.look_up(&field, &queries, &options).unwrap().results;
     let (mut both, mut se_answer, mut se_hybrid) = (0usize, 0.0f64, 0.0f64);
     for ((r, l), hit) in results.iter().zip(&looked).zip(&hits) {

@@ -445,11 +445,10 @@ impl TexelPlane {
 }
 
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
-/// holds `v` within the plane's thickness) or, with `sky`, is clear sky ([`clear_sky_texel`];
-/// one fetch).
+/// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
 fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
     if sky {
-        return clear_sky_texel(field, probe, texel);
+        return sky_texel(field, probe, texel);
     }
     TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
 }
@@ -493,6 +492,9 @@ fn filtered_radiance(
 ) -> [f32; 3] {
     if let Some(texels) = bilinear_texels(field.resolution, v) {
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+        // Sky reads blend the clear sky texels alone where there are any: a sky texel at a
+        // silhouette holds part of the surface's radiance ([`clear_sky_texel`]).
+        let (mut clear_sum, mut clear_weight) = (Vec3::ZERO, 0.0f32);
         for (texel, w) in texels {
             if w <= 0.0 {
                 continue;
@@ -500,19 +502,21 @@ fn filtered_radiance(
             *fetches += 1;
             if texel_shows(field, probe, texel, v, sky) {
                 *fetches += 1;
-                sum += w * Vec3::from(radiance(field, probe, texel));
+                let read = w * Vec3::from(radiance(field, probe, texel));
+                sum += read;
                 weight += w;
+                if sky && clear_sky_texel(field, probe, texel) {
+                    clear_sum += read;
+                    clear_weight += w;
+                }
             }
+        }
+        if clear_weight > 0.0 {
+            return (clear_sum / clear_weight).to_array();
         }
         if weight > 0.0 {
             return (sum / weight).to_array();
         }
-    }
-    if sky {
-        // No clear sky around: the sky map's (a texel at a silhouette holds the surface's
-        // radiance too).
-        let direction = v.normalize_or_zero();
-        return sky_map_radiance(field, direction, fetches);
     }
     *fetches += 1;
     radiance(field, probe, cell)
@@ -700,7 +704,7 @@ fn blended_radiance(
         } else {
             *fetches += 1;
             let cell = direction_cell(field.resolution, direction);
-            if !clear_sky_texel(field, probe, cell) {
+            if !sky_texel(field, probe, cell) {
                 continue;
             }
             let read = glossy_radiance(field, params, probe, direction, true, cell, t, fetches);
@@ -838,7 +842,10 @@ fn bounds_exit(params: &TraceParams, origin: Vec3, direction: Vec3) -> f32 {
 /// The radiance where a ray (or a guess of its end) ends ([`end_radiance`]): at a HIT, the
 /// read there of the probe that sees it best ([`hit_reader`]); at a MISS, or a guess past
 /// `t_exit` (nothing lies beyond the scene's bounds), the sky along the ray from a probe whose
-/// texel there sees clear sky ([`sky_probe`]), else the sky map's ([`sky_map_radiance`]).
+/// texel there sees the sky ([`sky_probe`]): for an answered MISS (`answered`) clear sky,
+/// else the sky map's ([`sky_map_radiance`]); for an estimate's guess any sky, else `probe`'s
+/// read along the ray (the sky map there doubled the error of Sponza's sparse grids, whose
+/// rays are mostly estimates: BENCHMARKS.md, "Who reads a hit").
 #[allow(clippy::too_many_arguments)]
 fn ray_end_radiance(
     field: &PackedField,
@@ -851,16 +858,36 @@ fn ray_end_radiance(
     origin: Vec3,
     direction: Vec3,
     t_exit: f32,
+    answered: bool,
     fetches: &mut u32,
 ) -> [f32; 3] {
     let sky = answer.code == MISS || answer.t > t_exit;
+    // An answered MISS reads clear sky (a sky texel at a silhouette holds part of the
+    // surface's radiance), else the sky map; an estimate's guess (`!answered`) that leaves
+    // the bounds or meets nothing reads any sky as before (its truth is as often the edge as
+    // the sky beyond it).
+    let miss = answered && answer.code == MISS;
     let mut reader = if sky {
-        sky_probe(selector, field, probe, origin_list, direction, fetches)
+        sky_probe(
+            selector,
+            field,
+            probe,
+            origin_list,
+            direction,
+            miss,
+            fetches,
+        )
     } else {
         probe
     };
+    if reader == NO_PROBE && !miss {
+        // A guess past the bounds that no probe asked sees as sky: the probe's own read
+        // along the ray, whatever it shows (BENCHMARKS.md, "Who reads a hit": the sky there
+        // doubled the error of Sponza's sparse grids, whose rays are mostly such estimates).
+        reader = probe;
+    }
     if reader == NO_PROBE {
-        // No probe asked sees the sky that way: the sky map's, blended like a probe's read.
+        // A MISS no probe asked sees as clear sky: the sky map's, blended like a probe's read.
         let own = sky_map_radiance(field, direction, fetches);
         let end = origin + direction * answer.t;
         return blended_radiance(
@@ -977,28 +1004,39 @@ fn hit_reader(
     (best.0, best.1)
 }
 
-/// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees clear
-/// sky ([`clear_sky_texel`], one fetch), else the first of `origin_list` (the selection's
-/// candidates at the ray's origin) and then of `probe`'s row of the nearest-probe table whose
-/// texel there does (a probe inside a room sees a wall where a ray left through a window),
-/// else `NO_PROBE` (the ray reads the sky map, [`sky_map_radiance`]: none of these probes sees
-/// clear sky that way; before the map such a ray read a wall or a silhouette's texel).
+/// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
+/// (with `clear`, clear sky: [`clear_sky_texel`]; one fetch), else the first of `origin_list`
+/// (the selection's candidates at the ray's origin) and then of `probe`'s row of the
+/// nearest-probe table whose texel there does (a probe inside a room sees a wall where a ray
+/// left through a window), else `NO_PROBE` (a MISS then reads the sky map,
+/// [`sky_map_radiance`]; before the map it read a wall or a silhouette's texel).
 fn sky_probe(
     selector: &Selector<'_>,
     field: &PackedField,
     probe: u32,
     origin_list: &select::Candidates,
     direction: Vec3,
+    clear: bool,
     fetches: &mut u32,
 ) -> u32 {
     let cell = direction_cell(field.resolution, direction);
     *fetches += 1;
-    if clear_sky_texel(field, probe, cell) {
+    if sees_sky(field, probe, cell, clear) {
         return probe;
     }
-    let (sky, _, examined) = first_sky_candidate(selector, field, origin_list, probe, probe, cell);
+    let (sky, _, examined) =
+        first_sky_candidate(selector, field, origin_list, probe, probe, cell, clear);
     *fetches += examined;
     sky
+}
+
+/// [`clear_sky_texel`] with `clear`, else [`sky_texel`] (one fetch).
+fn sees_sky(field: &PackedField, probe: u32, cell: UVec2, clear: bool) -> bool {
+    if clear {
+        clear_sky_texel(field, probe, cell)
+    } else {
+        sky_texel(field, probe, cell)
+    }
 }
 
 /// The sky map's radiance along `direction` (one fetch; `PackedField::sky_map`): the mean
@@ -1058,11 +1096,11 @@ fn first_seeing_sky(
 ) -> (u32, u32, u32) {
     let list = selector.select(x, direction, NO_PROBE);
     let anchor = selector.anchor(x);
-    first_sky_candidate(selector, field, &list, anchor, NO_PROBE, cell)
+    first_sky_candidate(selector, field, &list, anchor, NO_PROBE, cell, true)
 }
 
 /// The first probe of `list`, then of `anchor`'s row of the nearest-probe table (none for
-/// `NO_PROBE`), other than `skip`, whose interior texel `cell` sees clear sky ([`clear_sky_texel`],
+/// `NO_PROBE`), other than `skip`, whose interior texel `cell` sees the sky ([`sees_sky`],
 /// one fetch each): `(that probe or NO_PROBE, the first candidate, candidates examined)`
 /// (`gpu/trace.wgsl`'s `first_sky_candidate` step for step).
 fn first_sky_candidate(
@@ -1072,6 +1110,7 @@ fn first_sky_candidate(
     anchor: u32,
     skip: u32,
     cell: UVec2,
+    clear: bool,
 ) -> (u32, u32, u32) {
     let extension = if anchor == NO_PROBE {
         0
@@ -1088,7 +1127,7 @@ fn first_sky_candidate(
             first = q;
         }
         examined += 1;
-        if clear_sky_texel(field, q, cell) {
+        if sees_sky(field, q, cell, clear) {
             return (q, first, examined);
         }
     }
@@ -1242,6 +1281,7 @@ pub(crate) fn trace_ray<O: RayObserver>(
                         origin,
                         direction,
                         t_exit,
+                        false,
                         &mut fetches,
                     ))
                 };
@@ -1312,6 +1352,7 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 origin,
                 direction,
                 f32::MAX,
+                true,
                 &mut fetches,
             );
             record.status = answer.code;

@@ -963,11 +963,11 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> vec2<u32> {
 }
 
 // Whether `texel` of `probe` shows point v (relative to the probe: its surface's plane holds v
-// within the plane's thickness) or, with `sky`, is clear sky (src/cpu/mod.rs texel_shows; one
+// within the plane's thickness) or, with `sky`, is sky (src/cpu/mod.rs texel_shows; one
 // fetch, counted by the caller).
 fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>, sky: bool) -> bool {
     if (sky) {
-        return clear_sky_texel(probe, texel);
+        return sky_texel(probe, texel);
     }
     let plane = texel_plane(probe, texel);
     return !plane.sky && plane_holds(plane, v);
@@ -1060,6 +1060,9 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
         let frac = f - base;
         var sum = vec3<f32>(0.0);
         var weight = 0.0;
+        // Sky reads blend the clear sky texels alone where there are any.
+        var clear_sum = vec3<f32>(0.0);
+        var clear_weight = 0.0;
         for (var k = 0u; k < 4u; k++) {
             let w = bilinear_weight(k, frac);
             if (w <= 0.0) {
@@ -1069,21 +1072,21 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
             fetches += 1u;
             if (texel_shows(probe, texel, v, sky)) {
                 fetches += 1u;
-                sum += w * radiance_at(probe, texel);
+                let read = w * radiance_at(probe, texel);
+                sum += read;
                 weight += w;
+                if (sky && clear_sky_texel(probe, texel)) {
+                    clear_sum += read;
+                    clear_weight += w;
+                }
             }
+        }
+        if (clear_weight > 0.0) {
+            return clear_sum / clear_weight;
         }
         if (weight > 0.0) {
             return sum / weight;
         }
-    }
-    if (sky) {
-        // No clear sky around: the sky map's (src/cpu/mod.rs filtered_radiance).
-        var direction = vec3<f32>(0.0);
-        if (length(v) > 0.0) {
-            direction = normalize(v);
-        }
-        return sky_map_radiance(direction);
     }
     fetches += 1u;
     return radiance_at(probe, cell);
@@ -1278,7 +1281,7 @@ fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec
         } else {
             fetches += 1u;
             let cell = texel_containing(params.resolution, direction);
-            if (!clear_sky_texel(probe, cell)) {
+            if (!sky_texel(probe, cell)) {
                 continue;
             }
             sum += falloff * glossy_radiance(probe, direction, true, cell, t);
@@ -1329,8 +1332,16 @@ fn sky_texel(probe: u32, cell: vec2<u32>) -> bool {
     return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance;
 }
 
-// src/cpu/mod.rs clear_sky_texel: sky at the centre and no nearer edge (one fetch); what sky
-// radiance is read from.
+// src/cpu/mod.rs sees_sky: clear_sky_texel with clear, else sky_texel (one fetch).
+fn sees_sky(probe: u32, cell: vec2<u32>, clear: bool) -> bool {
+    if (clear) {
+        return clear_sky_texel(probe, cell);
+    }
+    return sky_texel(probe, cell);
+}
+
+// src/cpu/mod.rs clear_sky_texel: sky at the centre and no nearer edge (one fetch); what a
+// MISS reads the sky from.
 fn clear_sky_texel(probe: u32, cell: vec2<u32>) -> bool {
     let texel = geometry[padded_index(params.resolution, probe, cell)];
     return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance && (texel.w & SIGN_BIT) == 0u;
@@ -1340,13 +1351,13 @@ fn clear_sky_texel(probe: u32, cell: vec2<u32>) -> bool {
 fn first_seeing_sky(x: vec3<f32>, direction: vec3<f32>, cell: vec2<u32>) -> vec3<u32> {
     let list = select_probes(x, direction, NO_PROBE);
     let anchor = nearest_probe(params.kd_nodes, params.kd_count, x);
-    return first_sky_candidate(list, anchor, NO_PROBE, cell);
+    return first_sky_candidate(list, anchor, NO_PROBE, cell, true);
 }
 
 // src/cpu/mod.rs first_sky_candidate: the first probe of the list, then of anchor's
 // nearest-table row (none for NO_PROBE), other than skip, whose texel cell sees the sky:
 // (that probe or NO_PROBE, first candidate, examined).
-fn first_sky_candidate(list: Candidates, anchor: u32, skip: u32, cell: vec2<u32>) -> vec3<u32> {
+fn first_sky_candidate(list: Candidates, anchor: u32, skip: u32, cell: vec2<u32>, clear: bool) -> vec3<u32> {
     var extension = 0u;
     if (anchor != NO_PROBE) {
         extension = min(params.nearest_candidates, NEAREST_ROW);
@@ -1362,7 +1373,7 @@ fn first_sky_candidate(list: Candidates, anchor: u32, skip: u32, cell: vec2<u32>
             first = q;
         }
         examined += 1u;
-        if (clear_sky_texel(q, cell)) {
+        if (sees_sky(q, cell, clear)) {
             return vec3<u32>(q, first, examined);
         }
     }
@@ -1372,13 +1383,13 @@ fn first_sky_candidate(list: Candidates, anchor: u32, skip: u32, cell: vec2<u32>
 // src/cpu/mod.rs sky_probe: the probe a MISS reads the sky from (it, else the first of the
 // candidates at the ray's origin and then of its nearest-table row whose texel along the ray
 // sees the sky, else NO_PROBE: the sky map).
-fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>) -> u32 {
+fn sky_probe(probe: u32, origin_list: Candidates, direction: vec3<f32>, clear: bool) -> u32 {
     let cell = texel_containing(params.resolution, direction);
     fetches += 1u;
-    if (clear_sky_texel(probe, cell)) {
+    if (sees_sky(probe, cell, clear)) {
         return probe;
     }
-    let found = first_sky_candidate(origin_list, probe, probe, cell);
+    let found = first_sky_candidate(origin_list, probe, probe, cell, clear);
     fetches += found.z;
     return found.x;
 }
@@ -1456,7 +1467,7 @@ fn hit_reader(probe: u32, cell: vec2<u32>, hit: vec3<f32>, normal: vec3<f32>, or
 // that sees it best (hit_reader); at a MISS, or a guess past t_exit (nothing lies beyond the
 // bounds), the sky along the ray from a probe whose texel there sees clear sky, else the sky
 // map's (src/cpu/mod.rs ray_end_radiance; the blend of cones follows after the ray loop).
-fn ray_end_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction: vec3<f32>, origin_list: Candidates, t_exit: f32) -> vec3<f32> {
+fn ray_end_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction: vec3<f32>, origin_list: Candidates, t_exit: f32, answered: bool) -> vec3<f32> {
     let sky = guess.code == MISS || guess.t > t_exit;
     if (guess.code == HIT && !sky) {
         let end = origin + direction * guess.t;
@@ -1465,9 +1476,15 @@ fn ray_end_radiance(probe: u32, guess: ProbeAnswer, origin: vec3<f32>, direction
     }
     var reader = probe;
     if (sky) {
-        reader = sky_probe(probe, origin_list, direction);
-        if (reader == NO_PROBE) {
+        // An answered MISS reads clear sky, else the sky map; an estimate's guess any sky,
+        // else the probe's own read along the ray (src/cpu/mod.rs ray_end_radiance).
+        let miss = answered && guess.code == MISS;
+        reader = sky_probe(probe, origin_list, direction, miss);
+        if (reader == NO_PROBE && miss) {
             return sky_map_radiance(direction);
+        }
+        if (reader == NO_PROBE) {
+            reader = probe;
         }
     }
     let cell = texel_containing(params.resolution, direction);
@@ -1604,7 +1621,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 // A mirror ray: the near guess's radiance, or where it lost sight of the ray
                 // the mean with the far guess's, marched on from there no farther than the
                 // scene's bounds (src/cpu/mod.rs trace_ray).
-                let read = ray_end_radiance(probe, answer, origin, direction, origin_list, t_exit);
+                let read = ray_end_radiance(probe, answer, origin, direction, origin_list, t_exit, false);
                 if (far_pass) {
                     record.radiance = 0.5 * (record.radiance + read);
                     break;
@@ -1644,7 +1661,7 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 normal = unpack_normal(answer.normal);
             }
             // A MISS reads the sky along the ray, from a probe whose texel there sees it.
-            record.radiance = ray_end_radiance(probe, answer, origin, direction, origin_list, F32_MAX);
+            record.radiance = ray_end_radiance(probe, answer, origin, direction, origin_list, F32_MAX, true);
             record.status = answer.code;
             record.t = answer.t;
             record.position = hit;

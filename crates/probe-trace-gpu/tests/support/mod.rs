@@ -8,7 +8,7 @@ use probe_octa::{OctaLayout, OctaMap};
 use probe_scene::{Hit, Ray, Scene};
 use probe_trace_gpu::{
     CpuField, CpuTracer, FieldOptions, GpuContext, GpuTracer, IrradianceField, LightField,
-    ProbeSelection, RayResult, RayStatus, TraceRay, Tracer,
+    ProbeSelection, RayResult, RayStatus, SurfaceQuery, TraceRay, Tracer,
 };
 use rayon::prelude::*;
 
@@ -432,6 +432,19 @@ pub fn cpu_grid_field(bake: &Bake, grid: probe_index::ProbeGrid) -> (CpuTracer, 
         )
         .expect("a valid bake and grid");
     (tracer, field)
+}
+
+/// The hybrid tracer's queries for `rays` and their BVH hits: each hit's point and geometric
+/// normal, or an escape along the ray.
+#[allow(dead_code, reason = "not every test and example looks points up")]
+pub fn hit_queries(rays: &[Ray], hits: &[Option<Hit>]) -> Vec<SurfaceQuery> {
+    rays.iter()
+        .zip(hits)
+        .map(|(ray, hit)| match hit {
+            Some(hit) => SurfaceQuery::surface(hit.position, hit.geometric_normal, ray.direction),
+            None => SurfaceQuery::escaped(ray.origin, ray.direction),
+        })
+        .collect()
 }
 
 pub fn to_trace_rays(rays: &[Ray]) -> Vec<TraceRay> {
