@@ -908,19 +908,18 @@ fn ray_end_radiance(
         code: if sky { MISS } else { answer.code },
         ..*answer
     };
-    if read.code == HIT {
-        // Read by the probe that sees the hit best.
-        let hit = origin + direction * answer.t;
-        let normal = crate::surface::unpack_normal(read.normal);
-        (reader, read.cell) = hit_reader(
-            field, selector, probe, read.cell, hit, normal, origin, fetches,
-        );
-    }
     let normal = if read.code == HIT {
         crate::surface::unpack_normal(read.normal)
     } else {
         Vec3::ZERO
     };
+    if read.code == HIT {
+        // Read by the probe that sees the hit best.
+        let hit = origin + direction * answer.t;
+        (reader, read.cell) = hit_reader(
+            field, selector, probe, read.cell, hit, normal, origin, fetches,
+        );
+    }
     end_radiance(
         field, selection, params, reader, &read, origin, direction, normal, fetches,
     )
@@ -953,29 +952,20 @@ fn hit_reader(
     } else {
         -normal
     };
+    // Probe `q`'s view of the hit: from `q`, the cosine with the surface, the distance.
     let view = |q: u32| {
         let v = hit - field.position(q);
         let r = v.length();
-        if r > 0.0 {
-            (-side.dot(v) / r, r)
-        } else {
-            (0.0, 0.0)
-        }
+        let facing = if r > 0.0 { -side.dot(v) / r } else { 0.0 };
+        (v, facing, r)
     };
-    let edge = |record: [u32; 4]| {
-        if (record[0] | record[3]) & crate::packed::SIGN_BIT != 0 {
-            0.25
-        } else {
-            1.0
-        }
-    };
-    let (facing, r) = view(probe);
+    let (_, facing, r) = view(probe);
     if r == 0.0 || side == Vec3::ZERO {
         return (probe, cell);
     }
     *fetches += 1;
     let own = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
-    let mut best = (probe, cell, facing.max(0.0) / r * edge(own));
+    let mut best = (probe, cell, facing.max(0.0) / r * edge_weight(own));
     // The answering probe's row of the nearest-probe table: a table read, where the
     // selection's search at the hit (as good on the Cornell box) made every ray on lavapipe
     // 40 % slower (one more inlined copy of the selection).
@@ -985,23 +975,33 @@ fn hit_reader(
         if q == NO_PROBE || q == probe {
             continue;
         }
-        let (facing, r) = view(q);
+        let (v, facing, r) = view(q);
         // Even an inner texel could not beat the best: no fetch.
         if facing <= 0.0 || facing / r <= best.2 {
             continue;
         }
-        let v = hit - field.position(q);
         let texel = direction_cell(field.resolution, v / r);
         *fetches += 1;
         let Some(plane) = TexelPlane::of(field, q, texel) else {
             continue;
         };
-        let score = facing / r * edge(plane.record);
+        let score = facing / r * edge_weight(plane.record);
         if plane.holds(v) && score > best.2 {
             best = (q, texel, score);
         }
     }
     (best.0, best.1)
+}
+
+/// A texel's weight in the score of the probe that sees a point best ([`hit_reader`],
+/// [`look_up_point`]): a quarter for an edge texel (either edge flag), whose plane may not
+/// reach the point.
+fn edge_weight(record: [u32; 4]) -> f32 {
+    if (record[0] | record[3]) & crate::packed::SIGN_BIT != 0 {
+        0.25
+    } else {
+        1.0
+    }
 }
 
 /// The probe a MISS reads the sky from: `probe` when its texel along `direction` sees the sky
@@ -1485,9 +1485,7 @@ pub(crate) fn look_up_point(
         // The texel shows the point: it lies on the texel's plane, within the plane's
         // thickness along its normal.
         if plane.holds(v) {
-            let texel = plane.record;
-            let edge = (texel[0] | texel[3]) & crate::packed::SIGN_BIT != 0;
-            let score = facing / r * if edge { 0.25 } else { 1.0 };
+            let score = facing / r * edge_weight(plane.record);
             if score > best_score {
                 (best, best_cell, best_score) = (probe, cell, score);
             }

@@ -1403,7 +1403,8 @@ fn sky_map_radiance(direction: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(radiance[i], radiance[i + 1u], radiance[i + 2u]);
 }
 
-// An edge texel's weight in hit_reader's score.
+// An edge texel's weight in the score of the probe that sees a point best (src/cpu/mod.rs
+// edge_weight; hit_reader and look_up_point).
 fn edge_weight(record: vec4<u32>) -> f32 {
     if (((record.x | record.w) & SIGN_BIT) != 0u) {
         return 0.25;
@@ -1798,10 +1799,7 @@ fn look_up_point(index: u32) -> RayRecord {
             continue;
         }
         if (plane_holds(plane, v)) {
-            var score = facing / r;
-            if (((plane.record.x | plane.record.w) & SIGN_BIT) != 0u) {
-                score = score * 0.25;
-            }
+            let score = facing / r * edge_weight(plane.record);
             if (score > best_score) {
                 best = probe;
                 best_cell = cell;
