@@ -1,8 +1,9 @@
 //! Time and texel fetches of one 1920×1080 ray set, hi-Z against two-level, on the GPU (the
-//! first wgpu adapter: lavapipe on the machines here) and on the CPU twin, in one run; beside
-//! them the baseline a user weighs the probes against, the exact trace of the same rays
-//! against the scene's BVH (`Scene::closest_hits`, on all CPU threads), and the hybrid (those
-//! BVH hits, radiance looked up in the probes on the GPU and on the CPU twin).
+//! first wgpu adapter: lavapipe on the machines here, an NVIDIA H200 in
+//! `scripts/h200-figures.sh`) and on the CPU twin, in one run; beside them the baseline a
+//! user weighs the probes against, the exact trace of the same rays against the scene's BVH
+//! (`Scene::closest_hits`, on all CPU threads), and the hybrid (those BVH hits, radiance
+//! looked up in the probes on the GPU and on the CPU twin).
 //!
 //! The rays are the mirror reflections of Sponza's `CameraMain` at 1920×1080 (pixels whose
 //! primary ray hits nothing are dropped); grid probes (default 8×2×4 = 64) baked by the test
@@ -10,8 +11,14 @@
 //! bounds), so the fetch and time ratios are at equal accuracy.
 //!
 //! ```text
-//! LP_NUM_THREADS=2 cargo run --release -p probe-trace-gpu --example speed -- [resolution] [width height] [grid]
+//! LP_NUM_THREADS=2 cargo run --release -p probe-trace-gpu --example speed -- [resolution] [width height] [grid] [repeats]
 //! ```
+//!
+//! With `repeats` > 1 (default 1) every GPU trace and look-up runs that many times after the
+//! warm-up and the table gives the median of each time (wall and timestamps), with the spread
+//! (min–max) of the timestamps on a line below; the CPU twin and the BVH still run once.
+//! `SPEED_SHUFFLE=SEED` traces the rays in a seeded random order instead of the pixels' (to
+//! measure what the rays' coherence is worth on a GPU).
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -41,6 +48,68 @@ fn same_answers(a: &[RayResult], b: &[RayResult]) -> usize {
         .count()
 }
 
+/// How two answers to the same rays differ where they do: rays whose status differs, and
+/// rays with the same status whose positions are more than 1e-4 apart (with the largest gap).
+fn disagreements(a: &[RayResult], b: &[RayResult]) -> String {
+    let status = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| x.status != y.status)
+        .count();
+    let gaps: Vec<f32> = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| x.status == y.status)
+        .map(|(x, y)| (x.position - y.position).length())
+        .filter(|gap| *gap > 1e-4)
+        .collect();
+    format!(
+        "{status} differ in status, {} in position only (largest gap {:.4})",
+        gaps.len(),
+        gaps.iter().copied().fold(0.0f32, f32::max)
+    )
+}
+
+/// Fisher–Yates with a SplitMix64 stream: the same seed gives the same order.
+fn shuffle<T>(items: &mut [T], seed: u64) {
+    let mut state = seed;
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    for i in (1..items.len()).rev() {
+        let j = (next() % (i as u64 + 1)) as usize;
+        items.swap(i, j);
+    }
+}
+
+/// The median wall and timestamp times of repeated GPU calls; prints the timestamps' spread
+/// when there is more than one call.
+fn medians(what: &str, timings: &[probe_trace_gpu::Timing]) -> (Duration, Option<Duration>) {
+    let median = |mut v: Vec<Duration>| {
+        v.sort();
+        v[v.len() / 2]
+    };
+    let wall = median(timings.iter().map(|t| t.wall).collect());
+    let stamps: Option<Vec<Duration>> = timings.iter().map(|t| t.gpu).collect();
+    if timings.len() > 1
+        && let Some(s) = &stamps
+    {
+        eprintln!(
+            "{what}: {} calls, GPU timestamps min {:.3} ms, max {:.3} ms; wall min {:.3} ms, max {:.3} ms",
+            s.len(),
+            s.iter().min().unwrap().as_secs_f64() * 1e3,
+            s.iter().max().unwrap().as_secs_f64() * 1e3,
+            timings.iter().map(|t| t.wall).min().unwrap().as_secs_f64() * 1e3,
+            timings.iter().map(|t| t.wall).max().unwrap().as_secs_f64() * 1e3,
+        );
+    }
+    (wall, stamps.map(median))
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let resolution: u32 = args.next().map_or(256, |s| s.parse().expect("resolution"));
@@ -53,6 +122,10 @@ fn main() {
         .split('x')
         .map(|c| c.parse().expect("grid counts like 8x2x4"))
         .collect();
+    let repeats: usize = args
+        .next()
+        .map_or(1, |s| s.parse().expect("repeats: a count ≥ 1"))
+        .max(1);
 
     let t = Instant::now();
     let scene = Scene::load(probe_testdata::scene_path(probe_testdata::SPONZA)).unwrap();
@@ -64,7 +137,14 @@ fn main() {
             primary.push(camera.ray(x, y, width, height, glam::Vec2::ZERO));
         }
     }
-    let bvh_rays = reflection_rays(&scene, &primary);
+    let mut bvh_rays = reflection_rays(&scene, &primary);
+    if let Some(seed) = std::env::var("SPEED_SHUFFLE").ok().map(|s| {
+        s.parse::<u64>()
+            .expect("SPEED_SHUFFLE: a seed (unsigned integer)")
+    }) {
+        shuffle(&mut bvh_rays, seed);
+        eprintln!("rays shuffled (seed {seed})");
+    }
     let rays = to_trace_rays(&bvh_rays);
     drop(primary);
     let shade = albedo_shade(&scene);
@@ -125,19 +205,31 @@ fn main() {
         Duration,
     )> = Vec::new();
     for method in [TraceMethod::HiZ, TraceMethod::TwoLevel] {
-        let g = gpu.trace(&gpu_field, &rays, &options(method)).unwrap();
+        let runs: Vec<_> = (0..repeats)
+            .map(|_| gpu.trace(&gpu_field, &rays, &options(method)).unwrap())
+            .collect();
+        let (wall, stamps) = medians(
+            method.name(),
+            &runs.iter().map(|r| r.timing).collect::<Vec<_>>(),
+        );
+        let g = runs.into_iter().next().unwrap();
         let c = cpu.trace(&cpu_field, &rays, &options(method)).unwrap();
         let agree = same_answers(&g.results, &c.results);
         eprintln!(
-            "{}: GPU and CPU agree on {agree} of {} rays",
+            "{}: GPU and CPU agree on {agree} of {} rays{}",
             method.name(),
-            rays.len()
+            rays.len(),
+            if agree < rays.len() {
+                format!("; {}", disagreements(&g.results, &c.results))
+            } else {
+                String::new()
+            }
         );
         figures.push((
             method,
             TraceSummary::of(&g.results),
-            g.timing.wall,
-            g.timing.gpu,
+            wall,
+            stamps,
             c.timing.wall,
         ));
         gpu_results.push(g.results);
@@ -153,15 +245,18 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|");
     for (method, s, wall, stamps, cpu_wall) in &figures {
         println!(
-            "| {} | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | {:.3} s | {} | {:.3} s |",
+            "| {} | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | {:.3} ms | {} | {:.3} s |",
             method.name(),
             100.0 * s.hits as f64 / s.rays as f64,
             100.0 * s.misses as f64 / s.rays as f64,
             100.0 * s.unknown as f64 / s.rays as f64,
             s.fetches_per_ray,
             s.probes_per_ray,
-            wall.as_secs_f64(),
-            stamps.map_or("n/a".to_owned(), |d| format!("{:.3} s", d.as_secs_f64())),
+            wall.as_secs_f64() * 1e3,
+            stamps.map_or("n/a".to_owned(), |d| format!(
+                "{:.3} ms",
+                d.as_secs_f64() * 1e3
+            )),
             cpu_wall.as_secs_f64(),
         );
     }
@@ -177,7 +272,14 @@ fn main() {
     let defaults = TraceOptions::default();
     gpu.look_up(&gpu_field, &queries[..4096.min(queries.len())], &defaults)
         .unwrap();
-    let g = gpu.look_up(&gpu_field, &queries, &defaults).unwrap();
+    let runs: Vec<_> = (0..repeats)
+        .map(|_| gpu.look_up(&gpu_field, &queries, &defaults).unwrap())
+        .collect();
+    let (look_up_wall, look_up_stamps) = medians(
+        "hybrid look-up",
+        &runs.iter().map(|r| r.timing).collect::<Vec<_>>(),
+    );
+    let g = runs.into_iter().next().unwrap();
     let c = cpu.look_up(&cpu_field, &queries, &defaults).unwrap();
     let s = TraceSummary::of(&g.results);
     println!(
@@ -187,26 +289,31 @@ fn main() {
         bvh.as_secs_f64(),
     );
     println!(
-        "| hybrid: BVH + look-up | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | BVH + {:.3} s | BVH + {} | BVH + {:.3} s |",
+        "| hybrid: BVH + look-up | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | BVH + {:.3} ms | BVH + {} | BVH + {:.3} s |",
         100.0 * s.hits as f64 / s.rays as f64,
         100.0 * s.misses as f64 / s.rays as f64,
         100.0 * s.unknown as f64 / s.rays as f64,
         s.fetches_per_ray,
         s.probes_per_ray,
-        g.timing.wall.as_secs_f64(),
-        g.timing
-            .gpu
-            .map_or("n/a".to_owned(), |d| format!("{:.3} s", d.as_secs_f64())),
+        look_up_wall.as_secs_f64() * 1e3,
+        look_up_stamps.map_or("n/a".to_owned(), |d| format!(
+            "{:.3} ms",
+            d.as_secs_f64() * 1e3
+        )),
         c.timing.wall.as_secs_f64(),
     );
     let (h, t) = (&figures[0], &figures[1]);
     println!(
-        "against the BVH: CPU twin hi-Z {:.2}×, two-level {:.2}×, hybrid (BVH + CPU look-up) {:.2}×; lavapipe hi-Z {:.2}× (wall), hybrid (BVH + lavapipe look-up) {:.2}×",
+        "against the BVH: CPU twin hi-Z {:.2}×, two-level {:.2}×, hybrid (BVH + CPU look-up) {:.2}×; GPU hi-Z {:.2}× (wall), {} (timestamps), hybrid (BVH + GPU look-up) {:.2}×",
         h.4.as_secs_f64() / bvh.as_secs_f64(),
         t.4.as_secs_f64() / bvh.as_secs_f64(),
         (bvh + c.timing.wall).as_secs_f64() / bvh.as_secs_f64(),
         h.2.as_secs_f64() / bvh.as_secs_f64(),
-        (bvh + g.timing.wall).as_secs_f64() / bvh.as_secs_f64(),
+        h.3.map_or("n/a".to_owned(), |d| format!(
+            "{:.2}×",
+            d.as_secs_f64() / bvh.as_secs_f64()
+        )),
+        (bvh + look_up_wall).as_secs_f64() / bvh.as_secs_f64(),
     );
     println!(
         "hi-Z / two-level: fetches {:.3}, GPU wall {:.3}, GPU timestamps {}, CPU twin {:.3}",
