@@ -7,7 +7,7 @@
 # Runs wherever the first wgpu adapter is the GPU to be measured. It needs the release binaries
 # (`probes`, and the `speed` and `filtered_glossy` examples) in BIN (default target/release,
 # built here if missing) and the shared scenes in PROBE_SCENES_DIR (default ../shared/scenes).
-# Writes one log per run to ${1:-h200-figures}/. About 6 minutes on an H200 machine with 16
+# Writes one log per run to ${1:-h200-figures}/. About 7 minutes on an H200 machine with 16
 # cores (the 1920×1080 path-traced references are most of it); hours on lavapipe.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -28,9 +28,17 @@ run() {
     "$@" >"$out/$name.txt" 2>&1
     echo "$name: exit $?"
 }
-# Issue 13: the speed example, 10 calls each after a warm-up (median, and the spread).
-run speed_256 "$bin/examples/speed" 256 1920 1080 8x2x4 10
-run speed_128 "$bin/examples/speed" 128 1920 1080 8x2x4 10
+# A freshly started H200 machine ran its first one or two GPU processes 3.4-5.6x slower:
+# two throwaway processes first.
+run warm_up_1 "$bin/examples/speed" 128 960 540 8x2x4 5
+run warm_up_2 "$bin/examples/speed" 128 960 540 8x2x4 5
+# Issue 13: the speed example, 10 calls each after a warm-up call (median, and the spread),
+# pixels in rows, 8x8 tiles and Z-order.
+for res in 128 256; do
+    for order in rows tiles morton; do
+        run "order_${res}_$order" env SPEED_ORDER=$order "$bin/examples/speed" $res 1920 1080 8x2x4 10
+    done
+done
 # What the time depends on: half the probes, a random ray order, a quarter of the rays.
 run speed_256_32probes "$bin/examples/speed" 256 1920 1080 8x2x2 5
 run speed_128_shuffled env SPEED_SHUFFLE=1 "$bin/examples/speed" 128 1920 1080 8x2x4 5
@@ -40,6 +48,15 @@ w="$out/work"
 run render_cornell bash -c "'$bin/probes' place builtin:cornell --method grid --grid 3x3x3 --out '$w/c.json' &&
     '$bin/probes' bake builtin:cornell --probes '$w/c.json' --res 128 --out '$w/cb' &&
     '$bin/probes' render '$w/cb' --select grid --component final --split --width 640 --height 360 --out '$w/c_final.exr'"
+# Rows against tiles in `probes render`: set OLD_PROBES to a `probes` built before TileOrder
+# (63b70ea); the two alternate over three rounds.
+if [ -n "${OLD_PROBES:-}" ]; then
+    run render_tiles bash -c "'$bin/probes' bake '$sponza' --probes docs/tracer/sponza_region_grid.json --res 128 --out '$w/sb' &&
+        for round in 1 2 3; do for b in '$OLD_PROBES' '$bin/probes'; do
+            \$b render '$w/sb' --select grid --camera CameraMain --width 1920 --height 1080 --out '$w/g.exr' &&
+            \$b render '$w/sb' --select grid --camera CameraMain --component final --width 1920 --height 1080 --out '$w/f.exr'
+        done; done"
+fi
 run render_sponza bash -c "'$bin/probes' bake '$sponza' --probes docs/tracer/sponza_region_grid.json --res 128 --out '$w/sb' &&
     '$bin/probes' render '$w/sb' --select grid --camera CameraMain --component final --split --width 1920 --height 1080 --out '$w/s_final.exr'"
 # Issue 14: filtered against 16 stochastic rays at roughness 0.3.

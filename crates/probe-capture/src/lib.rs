@@ -112,7 +112,7 @@ pub use bake::{
 pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FILE};
 pub use environment::Environment;
 pub use evaluation::{
-    EvaluationRay, GBuffer, GBufferSample, ReferenceSample, Reflection, accumulate_rays,
+    EvaluationRay, GBuffer, GBufferSample, ReferenceSample, Reflection, TileOrder, accumulate_rays,
     ggx_lobe_mean, reflection_rays, render_gbuffer, trace_reference,
 };
 pub use final_image::{

@@ -38,8 +38,8 @@ use std::time::Instant;
 
 use glam::Vec3;
 use probe_capture::{
-    EvaluationRay, Image, ReferenceSample, Reflection, Sampling, accumulate_rays, find_camera,
-    reflection_rays, render_gbuffer,
+    EvaluationRay, Image, ReferenceSample, Reflection, Sampling, TileOrder, accumulate_rays,
+    find_camera, reflection_rays, render_gbuffer,
 };
 use probe_eval::glossy::filtered_reflection_rays;
 use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
@@ -65,7 +65,10 @@ fn timed_image(
     size: (u32, u32),
     repeats: usize,
 ) -> Result<(Image, f64, Vec<RayResult>), Box<dyn std::error::Error>> {
-    let trace_rays: Vec<TraceRay> = rays
+    // Traced in 8×8 pixel tiles, as the renderers do.
+    let order = TileOrder::of(rays, size.0);
+    let trace_rays: Vec<TraceRay> = order
+        .apply(rays)
         .iter()
         .map(|r| TraceRay::new(r.origin, r.direction))
         .collect();
@@ -76,7 +79,7 @@ fn timed_image(
         let output = device.trace(field, &trace_rays, options)?;
         let t = output.timing.gpu.unwrap_or(output.timing.wall);
         times.push(t.as_secs_f64() * 1e3);
-        last = Some(output.results);
+        last = Some(order.restore(output.results));
     }
     times.sort_by(f64::total_cmp);
     let results = last.unwrap_or_default();

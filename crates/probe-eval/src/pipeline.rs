@@ -10,8 +10,8 @@ use std::time::Instant;
 use glam::Vec3;
 use probe_capture::{
     BakeSettings, Environment, EvaluationRay, Image, MISS_DISTANCE, ProbeBake, Progress,
-    ReferenceSample, Reflection, Sampling, Shader, accumulate_rays, bake, reflection_rays,
-    render_gbuffer, trace_reference,
+    ReferenceSample, Reflection, Sampling, Shader, TileOrder, accumulate_rays, bake,
+    reflection_rays, render_gbuffer, trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
 use probe_scene::{Camera, Ray, Scene};
@@ -708,11 +708,15 @@ pub fn trace_only(
         return Ok(None);
     };
     let field = device.upload(&light_field(baked), &probe_selection)?;
+    // Traced in 8×8 pixel tiles (faster on a GPU; the answers do not depend on the order).
+    let order = TileOrder::of(&view.rays, view.settings.width);
+    let tiled = order.apply(rays);
     // Warm up: the first dispatch compiles the pipeline (lavapipe: seconds without Mesa's
     // shader cache, ~0.1 s with it).
-    let warm = rays.len().min(256);
-    device.trace_with(scene, &field, &rays[..warm], tracer)?;
-    let output = device.trace_with(scene, &field, rays, tracer)?;
+    let warm = tiled.len().min(256);
+    device.trace_with(scene, &field, &tiled[..warm], tracer)?;
+    let mut output = device.trace_with(scene, &field, &tiled, tracer)?;
+    output.results = order.restore(output.results);
     let image = view.image_of(&output.results)?;
     Ok(Some(TracedView {
         tracer,

@@ -18,7 +18,8 @@
 //! warm-up and the table gives the median of each time (wall and timestamps), with the spread
 //! (min–max) of the timestamps on a line below; the CPU twin and the BVH still run once.
 //! `SPEED_SHUFFLE=SEED` traces the rays in a seeded random order instead of the pixels' (to
-//! measure what the rays' coherence is worth on a GPU).
+//! measure what the rays' coherence is worth on a GPU); `SPEED_ORDER=tiles|morton` traces
+//! the pixels in 8×8 tiles or along the Z-order curve instead of row by row.
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -68,6 +69,27 @@ fn disagreements(a: &[RayResult], b: &[RayResult]) -> String {
         gaps.len(),
         gaps.iter().copied().fold(0.0f32, f32::max)
     )
+}
+
+/// The pixels of a `width`×`height` image in the order their rays are traced: `rows` (row
+/// by row), `tiles` (8×8 tiles, row by row within a tile and tiles row by row) or `morton`
+/// (the Z-order curve over the pixel coordinates).
+fn pixel_order(order: &str, width: u32, height: u32) -> Vec<(u32, u32)> {
+    let mut pixels: Vec<(u32, u32)> = (0..height)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .collect();
+    match order {
+        "rows" => {}
+        "tiles" => pixels.sort_by_key(|&(x, y)| (y / 8, x / 8, y % 8, x % 8)),
+        "morton" => pixels.sort_by_key(|&(x, y)| {
+            (0..16).fold(0u64, |code, bit| {
+                code | (u64::from((x >> bit) & 1) << (2 * bit))
+                    | (u64::from((y >> bit) & 1) << (2 * bit + 1))
+            })
+        }),
+        other => panic!("SPEED_ORDER {other:?}: one of rows, tiles, morton"),
+    }
+    pixels
 }
 
 /// Fisher–Yates with a SplitMix64 stream: the same seed gives the same order.
@@ -131,12 +153,12 @@ fn main() {
     let scene = Scene::load(probe_testdata::scene_path(probe_testdata::SPONZA)).unwrap();
     eprintln!("Sponza loaded in {:?}", t.elapsed());
     let camera = scene.camera("CameraMain").unwrap().clone();
-    let mut primary = Vec::with_capacity((width * height) as usize);
-    for y in 0..height {
-        for x in 0..width {
-            primary.push(camera.ray(x, y, width, height, glam::Vec2::ZERO));
-        }
-    }
+    let order = std::env::var("SPEED_ORDER").unwrap_or_else(|_| "rows".to_owned());
+    let primary: Vec<Ray> = pixel_order(&order, width, height)
+        .into_iter()
+        .map(|(x, y)| camera.ray(x, y, width, height, glam::Vec2::ZERO))
+        .collect();
+    eprintln!("pixels in {order} order");
     let mut bvh_rays = reflection_rays(&scene, &primary);
     if let Some(seed) = std::env::var("SPEED_SHUFFLE").ok().map(|s| {
         s.parse::<u64>()
