@@ -19,7 +19,8 @@
 //! (min–max) of the timestamps on a line below; the CPU twin and the BVH still run once.
 //! `SPEED_SHUFFLE=SEED` traces the rays in a seeded random order instead of the pixels' (to
 //! measure what the rays' coherence is worth on a GPU); `SPEED_ORDER=tiles|morton` traces
-//! the pixels in 8×8 tiles or along the Z-order curve instead of row by row.
+//! the pixels in 8×8 tiles or along the Z-order curve instead of row by row; `SPEED_NUDGE=1`
+//! also traces every ray one ulp away on the CPU twin and counts the answers that move.
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -236,6 +237,27 @@ fn main() {
         );
         let g = runs.into_iter().next().unwrap();
         let c = cpu.trace(&cpu_field, &rays, &options(method)).unwrap();
+        if std::env::var_os("SPEED_NUDGE").is_some() {
+            // The same rays one ulp away (each origin and direction component's next f32
+            // up), on the CPU twin: how many answers a rounding difference can move.
+            let nudge = |v: [f32; 3]| v.map(|x| f32::from_bits(x.to_bits() + 1));
+            let nudged: Vec<_> = rays
+                .iter()
+                .map(|r| probe_trace_gpu::TraceRay {
+                    origin: nudge(r.origin),
+                    direction: nudge(r.direction),
+                    ..*r
+                })
+                .collect();
+            let n = cpu.trace(&cpu_field, &nudged, &options(method)).unwrap();
+            let same = same_answers(&n.results, &c.results);
+            eprintln!(
+                "{}: CPU twin, rays one ulp away: {same} of {} rays answer the same; {}",
+                method.name(),
+                rays.len(),
+                disagreements(&n.results, &c.results)
+            );
+        }
         let agree = same_answers(&g.results, &c.results);
         eprintln!(
             "{}: GPU and CPU agree on {agree} of {} rays{}",
