@@ -20,7 +20,8 @@
 //! - **renders the reference** ([`render`]): direct light, the seeds' one-bounce indirect
 //!   glossy component and full global illumination, to an [`Image`] saved as EXR or
 //!   tone-mapped PNG, and the **evaluation rays** the probe tracer is compared on
-//!   ([`render_gbuffer`], [`reflection_rays`], [`trace_reference`], [`accumulate_rays`]).
+//!   ([`render_gbuffer`], [`reflection_rays`], [`trace_reference`], [`accumulate_rays`]),
+//!   and the order a GPU traces them fastest in ([`TileOrder`]: 8×8 pixel tiles).
 //!
 //! Bake and reference shade with one core, the [`Shader`], so "shade the true hit the same
 //! way" holds by construction.
