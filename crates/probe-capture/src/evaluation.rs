@@ -302,12 +302,46 @@ pub fn ggx_lobe_mean(
     geometric_normal: Vec3,
     roughness: f32,
 ) -> Option<(Vec3, f32)> {
+    ggx_sub_lobes(view, shading_normal, geometric_normal, roughness, 1)
+        .into_iter()
+        .next()
+}
+
+/// The GGX lobe of [`ggx_lobe_mean`] cut into `sectors` parts (1 to 8) by the azimuth of its
+/// visible-normal samples about the view: each part's mean direction and its share of the
+/// mean weight (the shares sum to [`ggx_lobe_mean`]'s weight; a part whose samples all fall
+/// below the surface is left out). Two sectors split the lobe across the plane of incidence's
+/// trace, into the halves nearer and farther from the normal: at a grazing view the lobe is
+/// long in that plane and narrow across it, so its halves are what two narrower cones stand
+/// for. Empty when no sample leaves above both surfaces.
+///
+/// ```
+/// use glam::Vec3;
+/// let up = Vec3::Y;
+/// let view = Vec3::new(-(75f32.to_radians().sin()), 75f32.to_radians().cos(), 0.0);
+/// let (_, whole) = probe_capture::ggx_lobe_mean(view, up, up, 0.3).unwrap();
+/// let halves = probe_capture::ggx_sub_lobes(view, up, up, 0.3, 2);
+/// assert_eq!(halves.len(), 2);
+/// let shares: f32 = halves.iter().map(|(_, w)| w).sum();
+/// assert!((shares - whole).abs() < 1e-5);
+/// // The halves lie on either side of the mean, in the plane of incidence (z = 0).
+/// assert!(halves.iter().all(|(d, _)| d.z.abs() < 1e-3));
+/// assert!(halves[0].0.y != halves[1].0.y);
+/// ```
+pub fn ggx_sub_lobes(
+    view: Vec3,
+    shading_normal: Vec3,
+    geometric_normal: Vec3,
+    roughness: f32,
+    sectors: u32,
+) -> Vec<(Vec3, f32)> {
+    let sectors = sectors.clamp(1, LOBE_MEAN_SIDE);
     let n = shading_normal;
     let alpha = (roughness * roughness).max(1e-4);
     let (t, b) = orthonormal_basis(n);
     let local_view = Vec3::new(view.dot(t), view.dot(b), view.dot(n));
-    let mut sum = Vec3::ZERO;
-    let mut total = 0.0f32;
+    let mut sum = vec![Vec3::ZERO; sectors as usize];
+    let mut total = vec![0.0f32; sectors as usize];
     let side = LOBE_MEAN_SIDE;
     for i in 0..side * side {
         let u = Vec2::new(
@@ -323,12 +357,19 @@ pub fn ggx_lobe_mean(
         if direction.dot(geometric_normal) <= 0.0 {
             continue;
         }
+        // `u.y` is the sample's azimuth about the view (`φ = 2π u.y`).
+        let sector = ((i / side) * sectors / side) as usize;
         let weight = smith_g1(alpha, local.z);
-        sum += weight * direction;
-        total += weight;
+        sum[sector] += weight * direction;
+        total[sector] += weight;
     }
-    let mean = sum.normalize_or_zero();
-    (total > 0.0 && mean != Vec3::ZERO).then(|| (mean, total / (side * side) as f32))
+    sum.into_iter()
+        .zip(total)
+        .filter_map(|(sum, total)| {
+            let mean = sum.normalize_or_zero();
+            (total > 0.0 && mean != Vec3::ZERO).then(|| (mean, total / (side * side) as f32))
+        })
+        .collect()
 }
 
 /// Secondary reflection rays: `rays_per_pixel` per G-buffer pixel that hit a front face (or a

@@ -1,7 +1,7 @@
 //! `probes render --component final` from the command line: the diffuse options (the
 //! surfels' near-field correction among them) and the glossy blend reach the parts they set
 //! (and only those), and a blend over too many probes
-//! is refused in one line naming the flag.
+//! is refused in one line naming the flag; `--sectors` cuts a filtered glossy lobe.
 
 mod support;
 
@@ -114,4 +114,60 @@ fn diffuse_options_and_glossy_blend_reach_the_final_image() {
     assert!(message.contains("glossy_blend"), "{message}");
     assert_eq!(message.trim().lines().count(), 1, "{message}");
     assert!(!out.exists(), "a refused render wrote {}", out.display());
+}
+
+/// `--sectors` cuts a filtered lobe into narrower cones: it changes a filtered glossy render,
+/// and is refused in one line without `--filtered` or outside 1 to 8.
+#[test]
+fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let bake = root.path().join("bake");
+    let output = probes(&[
+        "bake",
+        "builtin:cornell",
+        "--probes",
+        "grid:2x2x2",
+        "--res",
+        "16",
+        "--spp",
+        "2",
+        "--out",
+        bake.to_str().unwrap(),
+    ]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let render = |name: &str, extra: &[&str]| {
+        let out = root.path().join(format!("{name}.exr"));
+        let mut args = vec![
+            "render",
+            bake.to_str().unwrap(),
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        (probes(&args), out)
+    };
+    let filtered = ["--filtered", "--roughness", "0.3"];
+    let (one, one_path) = render("one", &filtered);
+    assert!(one.status.success(), "{}", stderr(&one));
+    let (two, two_path) = render("two", &[&filtered[..], &["--sectors", "2"]].concat());
+    assert!(two.status.success(), "{}", stderr(&two));
+    assert!(
+        std::fs::read(&one_path).unwrap() != std::fs::read(&two_path).unwrap(),
+        "--sectors 2 did not change the filtered render"
+    );
+    for (name, extra) in [
+        ("unfiltered", vec!["--sectors", "2"]),
+        ("too-many", [&filtered[..], &["--sectors", "9"]].concat()),
+    ] {
+        let (output, out) = render(name, &extra);
+        assert!(!output.status.success(), "{name} was accepted");
+        let message = stderr(&output);
+        assert!(message.contains("sectors"), "{message}");
+        assert_eq!(message.trim().lines().count(), 1, "{message}");
+        assert!(!out.exists(), "a refused render wrote {}", out.display());
+    }
 }

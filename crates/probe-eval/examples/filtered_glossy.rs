@@ -9,7 +9,9 @@
 //!
 //! Defaults: `builtin:cornell grid:3x3x3 64 256x256 default docs/glossy cornell 0.1 0.3 0.6`.
 //! The environment may set `GLOSSY_BLEND` (the filtered rays' `TraceOptions::glossy_blend`,
-//! default: the tracer's) and `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1).
+//! default: the tracer's), `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1) and
+//! `FILTERED_SPLIT=K` (a further row: the lobe cut into `K` sectors, one narrower cone each,
+//! `probe_eval::glossy::sub_lobe_rays`).
 //! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
 //! once with 6 prefiltered glossy levels to the GPU (lavapipe here) or, without an adapter, the
 //! CPU twin; the regular grid's cage selects probes, hi-Z traces. Per roughness:
@@ -41,7 +43,7 @@ use probe_capture::{
     EvaluationRay, Image, ReferenceSample, Reflection, Sampling, TileOrder, accumulate_rays,
     find_camera, reflection_rays, render_gbuffer,
 };
-use probe_eval::glossy::filtered_reflection_rays;
+use probe_eval::glossy::{filtered_reflection_rays, sub_lobe_rays, sub_lobe_roughness};
 use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
 use probe_eval::pipeline::{
     Device, EvalView, Selection, ViewSettings, bake_for_view, build_index, light_field,
@@ -305,6 +307,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "| {roughness} | filtered one probe / stochastic time | | | | | {:.3} | |",
             unblended_ms / stochastic_ms
         );
+        // Optional: the lobe cut into K sectors, one narrower cone each (`FILTERED_SPLIT=K`).
+        let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
+        if sectors > 1 {
+            let rays = sub_lobe_rays(&gbuffer, roughness, sectors)?;
+            let cone = TraceOptions {
+                glossy_roughness: sub_lobe_roughness(roughness, sectors),
+                ..cone
+            };
+            let (image, ms, _) = timed_image(&mut device, field, &rays, &cone, size, 3)?;
+            let (_, mean_flip) = flip(&image, reference)?;
+            println!(
+                "| {roughness} | filtered {sectors} rpp (sub-lobes) | {} | {:.3e} | {mean_flip:.4} | {:.3e} | {ms:.1} | – |",
+                rays.len(),
+                tonemapped_mse(&image, reference),
+                tonemapped_mse(&image, &converged),
+            );
+            println!(
+                "| {roughness} | filtered {sectors} rpp / stochastic time | | | | | {:.3} | |",
+                ms / stochastic_ms
+            );
+        }
         // Where the blended filtered image's error sits: its pixels by what the centre ray's
         // answer was against the BVH's (the accuracy classes), with each class's share of the
         // MSE against the reference and against the probes' converged 64-ray image.

@@ -34,6 +34,24 @@ pub fn filtered_reflection_rays(
     gbuffer: &GBuffer,
     roughness: f32,
 ) -> Result<Vec<EvaluationRay>, RenderError> {
+    sub_lobe_rays(gbuffer, roughness, 1)
+}
+
+/// `sectors` filtered rays per pixel (1 to 8; 1 is [`filtered_reflection_rays`]): the GGX lobe
+/// cut by azimuth into parts ([`probe_capture::ggx_sub_lobes`]), one ray along each part's
+/// mean weighted by its share. Trace them with `TraceOptions::glossy_roughness =`
+/// [`sub_lobe_roughness`]`(roughness, sectors)`, the cone of a part. A speed–accuracy knob
+/// between one cone per pixel and many stochastic rays: two sectors halve the lobe along the
+/// plane of incidence, where a grazing view stretches it.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for a `roughness` outside `(0, 1]` or `sectors` outside
+/// 1 to 8.
+pub fn sub_lobe_rays(
+    gbuffer: &GBuffer,
+    roughness: f32,
+    sectors: u32,
+) -> Result<Vec<EvaluationRay>, RenderError> {
     if !(roughness > 0.0 && roughness <= 1.0) {
         return Err(RenderError::InvalidSetting {
             parameter: "roughness",
@@ -41,28 +59,51 @@ pub fn filtered_reflection_rays(
             reason: "must lie in (0, 1]",
         });
     }
+    if !(1..=8).contains(&sectors) {
+        return Err(RenderError::InvalidSetting {
+            parameter: "sectors",
+            value: sectors.to_string(),
+            reason: "must be from 1 to 8 (rays per pixel)",
+        });
+    }
     Ok(gbuffer
         .pixels
         .par_iter()
         .enumerate()
         .with_min_len(64)
-        .filter_map(|(pixel, sample)| {
-            let s = sample.filter(|s| !s.back_face)?;
-            let (direction, weight) = probe_capture::ggx_lobe_mean(
-                s.towards_camera,
-                s.shading_normal,
-                s.geometric_normal,
-                roughness,
-            )?;
-            let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
-            Some(EvaluationRay {
-                pixel: pixel as u32,
-                origin: ray.origin,
-                direction: ray.direction,
-                weight,
-            })
+        .flat_map_iter(|(pixel, sample)| {
+            let lobes = match sample.filter(|s| !s.back_face) {
+                Some(s) => probe_capture::ggx_sub_lobes(
+                    s.towards_camera,
+                    s.shading_normal,
+                    s.geometric_normal,
+                    roughness,
+                    sectors,
+                )
+                .into_iter()
+                .map(|(direction, weight)| {
+                    let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+                    EvaluationRay {
+                        pixel: pixel as u32,
+                        origin: ray.origin,
+                        direction: ray.direction,
+                        weight,
+                    }
+                })
+                .collect(),
+                None => Vec::new(),
+            };
+            lobes.into_iter()
         })
         .collect())
+}
+
+/// The roughness whose cone ([`probe_octa::ggx_lobe_angle`] of its `α`) is the cone of one
+/// of `sectors` parts of a `roughness` lobe: the lobe's angle over `√sectors` (a part has
+/// `1/sectors` of the lobe's solid angle).
+pub fn sub_lobe_roughness(roughness: f32, sectors: u32) -> f32 {
+    let angle = probe_octa::ggx_lobe_angle(roughness * roughness) / (sectors.max(1) as f32).sqrt();
+    probe_octa::ggx_alpha_for_angle(angle).sqrt()
 }
 
 #[cfg(test)]
@@ -94,5 +135,36 @@ mod tests {
         let (_, weight) =
             probe_capture::ggx_lobe_mean(view, glam::Vec3::Y, glam::Vec3::Y, 0.01).unwrap();
         assert!((weight - 1.0).abs() < 1e-3, "{weight}");
+    }
+
+    /// Sub-lobe rays keep each pixel's weight, one sector is the filtered ray, and each
+    /// part's cone is narrower than the lobe's.
+    #[test]
+    fn sub_lobes_split_the_lobe_and_keep_its_weight() {
+        let scene = Scene::open("builtin:cornell").unwrap();
+        let gbuffer = render_gbuffer(&scene, &scene.default_camera(), 16, 16).unwrap();
+        let filtered = filtered_reflection_rays(&gbuffer, 0.3).unwrap();
+        assert_eq!(sub_lobe_rays(&gbuffer, 0.3, 1).unwrap(), filtered);
+        let per_pixel = |rays: &[EvaluationRay]| {
+            let mut sums = vec![0.0f64; 256];
+            for r in rays {
+                sums[r.pixel as usize] += f64::from(r.weight);
+            }
+            sums
+        };
+        for sectors in [2, 4] {
+            let split = sub_lobe_rays(&gbuffer, 0.3, sectors).unwrap();
+            assert!(
+                split.len() > filtered.len() && split.len() <= sectors as usize * filtered.len()
+            );
+            for (a, b) in per_pixel(&split).iter().zip(per_pixel(&filtered)) {
+                assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+            }
+            let narrower = sub_lobe_roughness(0.3, sectors);
+            assert!(narrower < 0.3 && narrower > 0.0, "{narrower}");
+        }
+        assert!((sub_lobe_roughness(0.3, 1) - 0.3).abs() < 1e-6);
+        assert!(sub_lobe_rays(&gbuffer, 0.3, 0).is_err());
+        assert!(sub_lobe_rays(&gbuffer, 0.3, 9).is_err());
     }
 }
