@@ -34,10 +34,9 @@ fn render_parts(bake: &Path, dir: &Path, name: &str, extra: &[&str]) -> (Vec<u8>
     (part("diffuse"), part("specular"))
 }
 
-#[test]
-fn diffuse_options_and_glossy_blend_reach_the_final_image() {
-    let root = tempfile::tempdir().unwrap();
-    let bake = root.path().join("bake");
+/// A small bake of the built-in Cornell box (8 grid probes at 16²) in `dir/bake`.
+fn small_cornell_bake(dir: &Path) -> std::path::PathBuf {
+    let bake = dir.join("bake");
     let output = probes(&[
         "bake",
         "builtin:cornell",
@@ -51,6 +50,13 @@ fn diffuse_options_and_glossy_blend_reach_the_final_image() {
         bake.to_str().unwrap(),
     ]);
     assert!(output.status.success(), "{}", stderr(&output));
+    bake
+}
+
+#[test]
+fn diffuse_options_and_glossy_blend_reach_the_final_image() {
+    let root = tempfile::tempdir().unwrap();
+    let bake = small_cornell_bake(root.path());
 
     let (diffuse, specular) = render_parts(&bake, root.path(), "default", &[]);
     let (no_visibility, specular_same) = render_parts(
@@ -121,20 +127,7 @@ fn diffuse_options_and_glossy_blend_reach_the_final_image() {
 #[test]
 fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
     let root = tempfile::tempdir().unwrap();
-    let bake = root.path().join("bake");
-    let output = probes(&[
-        "bake",
-        "builtin:cornell",
-        "--probes",
-        "grid:2x2x2",
-        "--res",
-        "16",
-        "--spp",
-        "2",
-        "--out",
-        bake.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
+    let bake = small_cornell_bake(root.path());
     let render = |name: &str, extra: &[&str]| {
         let out = root.path().join(format!("{name}.exr"));
         let mut args = vec![
