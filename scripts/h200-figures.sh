@@ -7,7 +7,7 @@
 # Runs wherever the first wgpu adapter is the GPU to be measured. It needs the release binaries
 # (`probes`, and the `speed` and `filtered_glossy` examples) in BIN (default target/release,
 # built here if missing) and the shared scenes in PROBE_SCENES_DIR (default ../shared/scenes).
-# Writes one log per run to ${1:-h200-figures}/. About 7 minutes on an H200 machine with 16
+# Writes one log per run to ${1:-h200-figures}/. About 11 minutes on an H200 machine with 16
 # cores (the 1920×1080 path-traced references are most of it); hours on lavapipe.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -62,5 +62,8 @@ run render_sponza bash -c "'$bin/probes' bake '$sponza' --probes docs/tracer/spo
 # Issue 14: filtered against 16 stochastic rays at roughness 0.3.
 run glossy_sponza_320 "$bin/examples/filtered_glossy" "$sponza" docs/tracer/sponza_region_grid.json 64 320x180 CameraMain "$w" sponza_320 0.3
 run glossy_sponza_1080 "$bin/examples/filtered_glossy" "$sponza" docs/tracer/sponza_region_grid.json 64 1920x1080 CameraMain "$w" sponza_1080 0.3
+# Sub-lobes (BENCHMARKS.md "Sub-lobes"; not yet run on a real GPU): 2 and 4 cones per pixel.
+run glossy_sponza_1080_sectors2 env FILTERED_SPLIT=2 "$bin/examples/filtered_glossy" "$sponza" docs/tracer/sponza_region_grid.json 64 1920x1080 CameraMain "$w" sponza_1080_s2 0.3
+run glossy_sponza_1080_sectors4 env FILTERED_SPLIT=4 "$bin/examples/filtered_glossy" "$sponza" docs/tracer/sponza_region_grid.json 64 1920x1080 CameraMain "$w" sponza_1080_s4 0.3
 run glossy_cornell_256 "$bin/examples/filtered_glossy" builtin:cornell grid:3x3x3 64 256x256 default "$w" cornell_256 0.1 0.3 0.6
 run glossy_cornell_1080 "$bin/examples/filtered_glossy" builtin:cornell grid:3x3x3 64 1920x1080 default "$w" cornell_1080 0.3
