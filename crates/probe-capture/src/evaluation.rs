@@ -143,6 +143,12 @@ impl TileOrder {
         TileOrder { order }
     }
 
+    /// The permutation itself: the index (in the rays as given) of each ray to trace, in
+    /// tile order.
+    pub fn indices(&self) -> &[usize] {
+        &self.order
+    }
+
     /// The number of rays ordered.
     pub fn len(&self) -> usize {
         self.order.len()
@@ -273,6 +279,9 @@ pub(crate) fn sample_ggx_vndf(view: Vec3, alpha: f32, u: Vec2) -> Vec3 {
 /// Quadrature points per side of [`ggx_lobe_mean`]'s stratified grid (`8² = 64` samples).
 const LOBE_MEAN_SIDE: u32 = 8;
 
+/// The most parts [`ggx_sub_lobes`] cuts a lobe into: one per row of its quadrature grid.
+pub const MAX_LOBE_SECTORS: u32 = LOBE_MEAN_SIDE;
+
 /// The mean of the GGX reflection lobe that [`reflection_rays`] samples, by a fixed
 /// quadrature (the centres of an 8×8 stratified grid of its random numbers; no noise): for
 /// perceptual `roughness` at a surface with `shading_normal` and `geometric_normal` seen from
@@ -307,7 +316,8 @@ pub fn ggx_lobe_mean(
         .next()
 }
 
-/// The GGX lobe of [`ggx_lobe_mean`] cut into `sectors` parts (1 to 8) by the azimuth of its
+/// The GGX lobe of [`ggx_lobe_mean`] cut into `sectors` parts (1 to [`MAX_LOBE_SECTORS`],
+/// clamped) by the azimuth of its
 /// visible-normal samples about the view: each part's mean direction and its share of the
 /// mean weight (the shares sum to [`ggx_lobe_mean`]'s weight; a part whose samples all fall
 /// below the surface is left out). Two sectors split the lobe across the plane of incidence's
@@ -335,7 +345,7 @@ pub fn ggx_sub_lobes(
     roughness: f32,
     sectors: u32,
 ) -> Vec<(Vec3, f32)> {
-    let sectors = sectors.clamp(1, LOBE_MEAN_SIDE);
+    let sectors = sectors.clamp(1, MAX_LOBE_SECTORS);
     let n = shading_normal;
     let alpha = (roughness * roughness).max(1e-4);
     let (t, b) = orthonormal_basis(n);
@@ -587,7 +597,8 @@ mod tile_order_tests {
                     prop_assert!(pair[0].pixel <= pair[1].pixel, "a tile's rays keep their order");
                 }
             }
-            let indices: Vec<usize> = order.restore(order.apply(&(0..rays.len()).collect::<Vec<_>>()));
+            prop_assert_eq!(order.apply(&(0..rays.len()).collect::<Vec<_>>()), order.indices());
+            let indices: Vec<usize> = order.restore(order.indices().to_vec());
             prop_assert_eq!(indices, (0..rays.len()).collect::<Vec<_>>());
         }
     }

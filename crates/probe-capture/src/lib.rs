@@ -113,8 +113,9 @@ pub use bake::{
 pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FILE};
 pub use environment::Environment;
 pub use evaluation::{
-    EvaluationRay, GBuffer, GBufferSample, ReferenceSample, Reflection, TileOrder, accumulate_rays,
-    ggx_lobe_mean, ggx_sub_lobes, reflection_rays, render_gbuffer, trace_reference,
+    EvaluationRay, GBuffer, GBufferSample, MAX_LOBE_SECTORS, ReferenceSample, Reflection,
+    TileOrder, accumulate_rays, ggx_lobe_mean, ggx_sub_lobes, reflection_rays, render_gbuffer,
+    trace_reference,
 };
 pub use final_image::{
     DIELECTRIC_F0, FinalParts, MIRROR_ROUGHNESS, SpecularRays, SurfaceResponse, diffuse_reference,

@@ -153,6 +153,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         u64::from(TraceOptions::default().glossy_blend),
     )?)?;
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
+    let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
 
     let scene = Scene::open(&scene_spec)?;
     let probes = ProbeSet::from_spec(&probes_spec, &scene)?;
@@ -308,7 +309,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             unblended_ms / stochastic_ms
         );
         // Optional: the lobe cut into K sectors, one narrower cone each (`FILTERED_SPLIT=K`).
-        let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
         if sectors > 1 {
             let rays = sub_lobe_rays(&gbuffer, roughness, sectors)?;
             let cone = TraceOptions {

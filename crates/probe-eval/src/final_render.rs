@@ -269,7 +269,7 @@ pub fn render_final(
     let order = TileOrder::of(&rays.rays, gbuffer.width);
     let mut groups: Vec<(f32, Vec<usize>)> = Vec::new();
     if filtered {
-        for i in order.apply(&(0..rays.rays.len()).collect::<Vec<_>>()) {
+        for &i in order.indices() {
             let r = rays.roughness[i];
             match groups.iter_mut().find(|(g, _)| *g == r) {
                 Some((_, members)) => members.push(i),

@@ -59,7 +59,7 @@ pub fn sub_lobe_rays(
             reason: "must lie in (0, 1]",
         });
     }
-    if !(1..=8).contains(&sectors) {
+    if !(1..=probe_capture::MAX_LOBE_SECTORS).contains(&sectors) {
         return Err(RenderError::InvalidSetting {
             parameter: "sectors",
             value: sectors.to_string(),

@@ -73,15 +73,18 @@ fn disagreements(a: &[RayResult], b: &[RayResult]) -> String {
 }
 
 /// The pixels of a `width`×`height` image in the order their rays are traced: `rows` (row
-/// by row), `tiles` (8×8 tiles, row by row within a tile and tiles row by row) or `morton`
-/// (the Z-order curve over the pixel coordinates).
+/// by row), `tiles` (the renderers' `probe_capture::TileOrder`: 8×8 tiles, row by row within a
+/// tile and tiles row by row) or `morton` (the Z-order curve over the pixel coordinates).
 fn pixel_order(order: &str, width: u32, height: u32) -> Vec<(u32, u32)> {
     let mut pixels: Vec<(u32, u32)> = (0..height)
         .flat_map(|y| (0..width).map(move |x| (x, y)))
         .collect();
     match order {
         "rows" => {}
-        "tiles" => pixels.sort_by_key(|&(x, y)| (y / 8, x / 8, y % 8, x % 8)),
+        "tiles" => {
+            let tile = probe_capture::TileOrder::TILE;
+            pixels.sort_by_key(|&(x, y)| (y / tile, x / tile, y % tile, x % tile));
+        }
         "morton" => pixels.sort_by_key(|&(x, y)| {
             (0..16).fold(0u64, |code, bit| {
                 code | (u64::from((x >> bit) & 1) << (2 * bit))
@@ -93,19 +96,13 @@ fn pixel_order(order: &str, width: u32, height: u32) -> Vec<(u32, u32)> {
     pixels
 }
 
-/// Fisher–Yates with a SplitMix64 stream: the same seed gives the same order.
+/// Fisher–Yates with the project's seeded generator (`probe_capture::Rng`): the same seed
+/// gives the same order.
 fn shuffle<T>(items: &mut [T], seed: u64) {
-    let mut state = seed;
-    let mut next = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    };
+    let mut rng = probe_capture::Rng::for_key(seed, &[]);
     for i in (1..items.len()).rev() {
-        let j = (next() % (i as u64 + 1)) as usize;
-        items.swap(i, j);
+        let bits = (u64::from(rng.next_u32()) << 32) | u64::from(rng.next_u32());
+        items.swap(i, (bits % (i as u64 + 1)) as usize);
     }
 }
 

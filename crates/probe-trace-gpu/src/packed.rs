@@ -120,8 +120,7 @@ fn pack_sky_map(
         for iy in 0..n {
             for ix in 0..n {
                 let i = padded_index(n, probe, ix, iy);
-                let texel = geometry[i];
-                if f32::from_bits(texel[0] & !SIGN_BIT) >= sky && texel[3] & SIGN_BIT == 0 {
+                if record_is_clear_sky(geometry[i], sky) {
                     let cell = iy as usize * side + ix as usize;
                     sum[cell] += source[i];
                     count[cell] += 1;
@@ -304,6 +303,20 @@ pub(crate) const COS_AMONG_SAMPLES: f32 = 0.05;
 
 /// The sign bit of an `f32`, used as a flag on values that are never negative.
 pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
+
+/// Whether a texel's geometry record ([`TexelBounds`]) saw sky at its centre: a radial
+/// distance of at least `sky` (`gpu/trace.wgsl`'s `record_is_sky`).
+pub(crate) fn record_is_sky(record: [u32; 4], sky: f32) -> bool {
+    f32::from_bits(record[0] & !SIGN_BIT) >= sky
+}
+
+/// Whether a texel's geometry record saw nothing but sky: sky at its centre and no nearer
+/// edge (no surface beside it, none among the baker's samples inside it). Only such a
+/// texel's radiance is the sky's: one at a silhouette holds part of the surface's
+/// (`gpu/trace.wgsl`'s `record_is_clear_sky`).
+pub(crate) fn record_is_clear_sky(record: [u32; 4], sky: f32) -> bool {
+    record_is_sky(record, sky) && record[3] & SIGN_BIT == 0
+}
 
 /// A grid's GPU parameters, after checking it holds the uploaded probes.
 fn grid_params(grid: &ProbeGrid, probes: usize) -> Result<GridParams, UploadError> {

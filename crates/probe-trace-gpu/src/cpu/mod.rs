@@ -1072,17 +1072,14 @@ fn leaves_into_sky(field: &PackedField, probe: u32, exit: Vec3, fetches: &mut u3
 /// Whether interior texel `cell` of `probe` saw no geometry (one fetch).
 fn sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
     let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
-    f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
+    crate::packed::record_is_sky(texel, field.sky_distance)
 }
 
-/// Whether interior texel `cell` of `probe` saw nothing but sky (one fetch): sky at its
-/// centre and no nearer edge ([`crate::packed::TexelBounds`]: no surface beside it, none
-/// among the baker's samples inside it). Only such a texel's radiance is the sky's: one at a
-/// silhouette holds part of the surface's. What sky radiance is read from.
+/// Whether interior texel `cell` of `probe` saw nothing but sky (one fetch;
+/// [`crate::packed::record_is_clear_sky`]). What sky radiance is read from.
 fn clear_sky_texel(field: &PackedField, probe: u32, cell: UVec2) -> bool {
     let texel = field.geometry[padded_index(field.resolution, probe, cell.x, cell.y)];
-    f32::from_bits(texel[0] & !crate::packed::SIGN_BIT) >= field.sky_distance
-        && texel[3] & crate::packed::SIGN_BIT == 0
+    crate::packed::record_is_clear_sky(texel, field.sky_distance)
 }
 
 /// The first of the selection's candidates at `x`, then of the probes nearest `x`, whose

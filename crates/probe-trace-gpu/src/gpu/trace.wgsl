@@ -1326,10 +1326,19 @@ fn leaves_into_sky(probe: u32, exit: vec3<f32>) -> bool {
     return sky_texel(probe, texel_containing(params.resolution, normalize(v)));
 }
 
+// src/packed.rs record_is_sky: the record saw sky at its centre.
+fn record_is_sky(texel: vec4<u32>) -> bool {
+    return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance;
+}
+
+// src/packed.rs record_is_clear_sky: sky at its centre and no nearer edge.
+fn record_is_clear_sky(texel: vec4<u32>) -> bool {
+    return record_is_sky(texel) && (texel.w & SIGN_BIT) == 0u;
+}
+
 // src/cpu/mod.rs sky_texel (one fetch).
 fn sky_texel(probe: u32, cell: vec2<u32>) -> bool {
-    let texel = geometry[padded_index(params.resolution, probe, cell)];
-    return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance;
+    return record_is_sky(geometry[padded_index(params.resolution, probe, cell)]);
 }
 
 // src/cpu/mod.rs sees_sky: clear_sky_texel with clear, else sky_texel (one fetch).
@@ -1343,8 +1352,7 @@ fn sees_sky(probe: u32, cell: vec2<u32>, clear: bool) -> bool {
 // src/cpu/mod.rs clear_sky_texel: sky at the centre and no nearer edge (one fetch); what a
 // MISS reads the sky from.
 fn clear_sky_texel(probe: u32, cell: vec2<u32>) -> bool {
-    let texel = geometry[padded_index(params.resolution, probe, cell)];
-    return bitcast<f32>(texel.x & ~SIGN_BIT) >= params.sky_distance && (texel.w & SIGN_BIT) == 0u;
+    return record_is_clear_sky(geometry[padded_index(params.resolution, probe, cell)]);
 }
 
 // src/cpu/mod.rs first_seeing_sky: (probe or NO_PROBE, first candidate, examined).
@@ -1661,7 +1669,8 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             if (answer.code == HIT) {
                 normal = unpack_normal(answer.normal);
             }
-            // A MISS reads the sky along the ray, from a probe whose texel there sees it.
+            // A HIT is read by the probe that sees it best; a MISS reads the sky along the
+            // ray, from a probe whose texel there sees clear sky (else the sky map).
             record.radiance = ray_end_radiance(probe, answer, origin, direction, origin_list, F32_MAX, true);
             record.status = answer.code;
             record.t = answer.t;
