@@ -11,7 +11,9 @@
 //! The environment may set `GLOSSY_BLEND` (the filtered rays' `TraceOptions::glossy_blend`,
 //! default: the tracer's), `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1) and
 //! `FILTERED_SPLIT=K` (a further row: the lobe cut into `K` sectors, one narrower cone each,
-//! `probe_eval::glossy::sub_lobe_rays`).
+//! `probe_eval::glossy::sub_lobe_rays`) and `BAKE_NOISE=1` (a second bake of the same probes
+//! with the next seed: every probe image is traced through both bakes, and each row gains the
+//! second bake's MSE and the bake's noise, half the tone-mapped MSE between the two images).
 //! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
 //! once with 6 prefiltered glossy levels to the GPU (lavapipe here) or, without an adapter, the
 //! CPU twin; the regular grid's cage selects probes, hi-Z traces. Per roughness:
@@ -31,7 +33,8 @@
 //! The blended filtered image's error is then split by what each pixel's centre ray answered
 //! against the BVH's closest hit (`probe_eval::metrics::classify_pixels`: correct hit, right
 //! surface with wrong radiance, wrong hit, UNKNOWN, ...), against the reference and against the
-//! probes' 64-ray image. Prints a Markdown table and writes `OUT/NAME.png`: per roughness
+//! probes' 64-ray image, and each image's error is split by the angle the camera sees the
+//! surface at (bins of `n·v`). Prints a Markdown table and writes `OUT/NAME.png`: per roughness
 //! a row filtered 1 rpp by one probe | filtered 1 rpp blended | stochastic 16 rpp | reference, at
 //! the reference's exposure.
 
@@ -46,7 +49,7 @@ use probe_capture::{
 use probe_eval::glossy::{filtered_reflection_rays, sub_lobe_rays, sub_lobe_roughness};
 use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
 use probe_eval::pipeline::{
-    Device, EvalView, Selection, ViewSettings, bake_for_view, build_index, light_field,
+    Device, EvalView, Selection, ViewSettings, bake_for_view_seeded, build_index, light_field,
 };
 use probe_index::ProbeGrid;
 use probe_place::ProbeSet;
@@ -91,6 +94,70 @@ fn timed_image(
         times[times.len() / 2],
         results,
     ))
+}
+
+/// With a second bake (`BAKE_NOISE`): the image of the same rays traced through it, printed as
+/// a row under `label` with its MSE against the reference and the bake's noise (half the
+/// tone-mapped MSE between the two bakes' images, the variance of one).
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one image's rays and options, and the images it is compared with"
+)]
+fn second_bake_row(
+    device: &mut Device,
+    fields: &[AnyField],
+    rays: &[EvaluationRay],
+    options: &TraceOptions,
+    size: (u32, u32),
+    first: &Image,
+    reference: &Image,
+    label: &str,
+    roughness: f32,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Some(second) = fields.get(1) else {
+        return Ok(());
+    };
+    let (image, _, _) = timed_image(device, second, rays, options, size, 1)?;
+    println!(
+        "| {roughness} | {label}, second bake | | {:.3e} | | bake noise {:.2e} | | |",
+        tonemapped_mse(&image, reference),
+        tonemapped_mse(first, &image) / 2.0,
+    );
+    Ok(())
+}
+
+/// Bins of `n·v` (shading normal against the direction to the camera), grazing first.
+const VIEW_BINS: [f32; 7] = [0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0];
+
+/// Each [`VIEW_BINS`] bin's share of the image's pixels and its pixels' part of the
+/// tone-mapped MSE of `image` against `reference` (the parts sum to the image's MSE; pixels
+/// without a front-facing surface count in no bin).
+fn error_by_view_angle(
+    gbuffer: &probe_capture::GBuffer,
+    image: &Image,
+    reference: &Image,
+) -> Vec<(f64, f64)> {
+    let map = |v: f32| {
+        let v = f64::from(v.max(0.0));
+        v / (1.0 + v)
+    };
+    let n = image.rgb.len().max(1) as f64;
+    let mut bins = vec![(0.0f64, 0.0f64); VIEW_BINS.len() - 1];
+    for (i, pixel) in gbuffer.pixels.iter().enumerate() {
+        let Some(s) = pixel.filter(|s| !s.back_face) else {
+            continue;
+        };
+        let cos = s.shading_normal.dot(s.towards_camera).clamp(0.0, 1.0);
+        let bin = VIEW_BINS[1..]
+            .iter()
+            .position(|&edge| cos < edge)
+            .unwrap_or(VIEW_BINS.len() - 2);
+        let (a, b) = (image.rgb[i], reference.rgb[i]);
+        let error: f64 = (0..3).map(|k| (map(a[k]) - map(b[k])).powi(2)).sum();
+        bins[bin].0 += 1.0 / n;
+        bins[bin].1 += error / (3.0 * n);
+    }
+    bins
 }
 
 /// The image of every other ray of each pixel (`parity` 0 or 1), weights doubled.
@@ -154,6 +221,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?)?;
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
     let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
+    let bake_noise = number("BAKE_NOISE", 0)? != 0;
 
     let scene = Scene::open(&scene_spec)?;
     let probes = ProbeSet::from_spec(&probes_spec, &scene)?;
@@ -177,7 +245,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let gbuffer = render_gbuffer(&scene, &camera, size.0, size.1)?;
 
-    let mut field = None;
+    // One field per bake: the first, and with `BAKE_NOISE` a second of the next seed.
+    let mut fields: Vec<AnyField> = Vec::new();
     let mut baked = None;
     let mut panels: Vec<[Image; 4]> = Vec::new();
     println!(
@@ -196,34 +265,41 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let view = EvalView::render(&scene, camera.clone(), settings(roughness), &|_, _| {})?;
         let reference_seconds = start.elapsed().as_secs_f64();
         if baked.is_none() {
-            let start = Instant::now();
-            let (bake, _) = bake_for_view(
-                &scene,
-                &probes.positions,
-                resolution,
-                Sampling::default(),
-                &view,
-                &|_, _| {},
-            )?;
-            let bake_seconds = start.elapsed().as_secs_f64();
             let index = build_index(&scene, &probes.positions, 7, Some(grid), 0)?;
             let selection = Selection::Grid.of(&index).ok_or("grid selection")?;
-            let start = Instant::now();
-            field = Some(device.upload_with(
-                &light_field(&bake),
-                &selection,
-                &FieldOptions {
-                    glossy_levels: GLOSSY_LEVELS,
-                    ..FieldOptions::default()
-                },
-            )?);
-            println!(
-                "bake {bake_seconds:.1} s; upload with {GLOSSY_LEVELS} glossy levels {:.2} s",
-                start.elapsed().as_secs_f64()
-            );
-            baked = Some(bake);
+            let seeds = if bake_noise { 2 } else { 1 };
+            for k in 0..seeds {
+                let start = Instant::now();
+                let (bake, _) = bake_for_view_seeded(
+                    &scene,
+                    &probes.positions,
+                    resolution,
+                    Sampling::default(),
+                    &view,
+                    view.settings.seed + k,
+                    &|_, _| {},
+                )?;
+                let bake_seconds = start.elapsed().as_secs_f64();
+                let start = Instant::now();
+                fields.push(device.upload_with(
+                    &light_field(&bake),
+                    &selection,
+                    &FieldOptions {
+                        glossy_levels: GLOSSY_LEVELS,
+                        ..FieldOptions::default()
+                    },
+                )?);
+                println!(
+                    "bake (seed {}) {bake_seconds:.1} s; upload with {GLOSSY_LEVELS} glossy levels {:.2} s",
+                    view.settings.seed + k,
+                    start.elapsed().as_secs_f64()
+                );
+                if k == 0 {
+                    baked = Some(bake);
+                }
+            }
         }
-        let field = field.as_ref().ok_or("uploaded")?;
+        let field = fields.first().ok_or("uploaded")?;
         let reference = &view.reference_image;
         let floor =
             tonemapped_mse(&half_image(&view, 0, size)?, &half_image(&view, 1, size)?) / 4.0;
@@ -262,43 +338,59 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         };
         let (unblended, unblended_ms, _) =
             timed_image(&mut device, field, &filtered_rays, &single, size, 3)?;
-        for (label, image, rays, ms, rays_ms) in [
+        for (label, image, rays, options, ms, rays_ms) in [
             (
                 "filtered 1 rpp, one probe",
                 &unblended,
-                filtered_rays.len(),
+                &filtered_rays,
+                &single,
                 unblended_ms,
                 Some(filtered_rays_ms),
             ),
             (
                 "filtered 1 rpp",
                 &filtered,
-                filtered_rays.len(),
+                &filtered_rays,
+                &cone,
                 filtered_ms,
                 Some(filtered_rays_ms),
             ),
             (
                 "stochastic 16 rpp",
                 &stochastic,
-                stochastic_rays.len(),
+                &stochastic_rays,
+                &plain,
                 stochastic_ms,
                 Some(stochastic_rays_ms),
             ),
             (
                 "probes 64 rpp",
                 &converged,
-                view.rays.len(),
+                &view.rays,
+                &plain,
                 converged_ms,
                 None,
             ),
         ] {
             let (_, mean_flip) = flip(image, reference)?;
             println!(
-                "| {roughness} | {label} | {rays} | {:.3e} | {mean_flip:.4} | {:.3e} | {ms:.1} | {} |",
+                "| {roughness} | {label} | {} | {:.3e} | {mean_flip:.4} | {:.3e} | {ms:.1} | {} |",
+                rays.len(),
                 tonemapped_mse(image, reference),
                 tonemapped_mse(image, &converged),
                 rays_ms.map_or("–".to_owned(), |m| format!("{m:.1}")),
             );
+            second_bake_row(
+                &mut device,
+                &fields,
+                rays,
+                options,
+                size,
+                image,
+                reference,
+                label,
+                roughness,
+            )?;
         }
         println!(
             "| {roughness} | filtered / stochastic time | | | | | {:.3} | |",
@@ -309,6 +401,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             unblended_ms / stochastic_ms
         );
         // Optional: the lobe cut into K sectors, one narrower cone each (`FILTERED_SPLIT=K`).
+        let mut by_angle = vec![
+            ("filtered 1 rpp".to_owned(), filtered.clone()),
+            ("stochastic 16 rpp".to_owned(), stochastic.clone()),
+            ("probes 64 rpp".to_owned(), converged.clone()),
+        ];
         if sectors > 1 {
             let rays = sub_lobe_rays(&gbuffer, roughness, sectors)?;
             let cone = TraceOptions {
@@ -323,9 +420,47 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 tonemapped_mse(&image, reference),
                 tonemapped_mse(&image, &converged),
             );
+            second_bake_row(
+                &mut device,
+                &fields,
+                &rays,
+                &cone,
+                size,
+                &image,
+                reference,
+                "sub-lobes",
+                roughness,
+            )?;
             println!(
                 "| {roughness} | filtered {sectors} rpp / stochastic time | | | | | {:.3} | |",
                 ms / stochastic_ms
+            );
+            by_angle.insert(1, (format!("filtered {sectors} rpp"), image));
+        }
+        // Where each image's error sits by the angle the camera sees the surface at.
+        let columns: Vec<Vec<(f64, f64)>> = by_angle
+            .iter()
+            .map(|(_, image)| error_by_view_angle(&gbuffer, image, reference))
+            .collect();
+        println!(
+            "| {roughness} | n·v bin | pixels | {} |",
+            by_angle
+                .iter()
+                .map(|(label, _)| format!("MSE part, {label}"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+        for (bin, edges) in VIEW_BINS.windows(2).enumerate() {
+            println!(
+                "| {roughness} | {:.2}–{:.2} | {:.1} % | {} |",
+                edges[0],
+                edges[1],
+                100.0 * columns[0][bin].0,
+                columns
+                    .iter()
+                    .map(|column| format!("{:.2e}", column[bin].1))
+                    .collect::<Vec<_>>()
+                    .join(" | ")
             );
         }
         // Where the blended filtered image's error sits: its pixels by what the centre ray's
