@@ -445,11 +445,8 @@ impl TexelPlane {
 }
 
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
-/// holds `v` within the plane's thickness) or, with `sky`, is sky (one fetch).
-fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3, sky: bool) -> bool {
-    if sky {
-        return sky_texel(field, probe, texel);
-    }
+/// holds `v` within the plane's thickness; one fetch).
+fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3) -> bool {
     TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
 }
 
@@ -468,7 +465,7 @@ pub(crate) fn among_samples(field: &PackedField, probe: u32, v: Vec3, fetches: &
             continue;
         }
         *fetches += 1;
-        if !texel_shows(field, probe, texel, v, false) {
+        if !texel_shows(field, probe, texel, v) {
             return false;
         }
     }
@@ -500,12 +497,24 @@ fn filtered_radiance(
                 continue;
             }
             *fetches += 1;
-            if texel_shows(field, probe, texel, v, sky) {
+            // One load of the texel's record: for the sky, whether it is sky and whether
+            // clear sky; for a point, whether its plane holds the point.
+            let (shows, clear) = if sky {
+                let record =
+                    field.geometry[padded_index(field.resolution, probe, texel.x, texel.y)];
+                (
+                    crate::packed::record_is_sky(record, field.sky_distance),
+                    crate::packed::record_is_clear_sky(record, field.sky_distance),
+                )
+            } else {
+                (texel_shows(field, probe, texel, v), false)
+            };
+            if shows {
                 *fetches += 1;
                 let read = w * Vec3::from(radiance(field, probe, texel));
                 sum += read;
                 weight += w;
-                if sky && clear_sky_texel(field, probe, texel) {
+                if clear {
                     clear_sum += read;
                     clear_weight += w;
                 }

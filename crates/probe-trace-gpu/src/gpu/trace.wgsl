@@ -963,12 +963,8 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> vec2<u32> {
 }
 
 // Whether `texel` of `probe` shows point v (relative to the probe: its surface's plane holds v
-// within the plane's thickness) or, with `sky`, is sky (src/cpu/mod.rs texel_shows; one
-// fetch, counted by the caller).
-fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>, sky: bool) -> bool {
-    if (sky) {
-        return sky_texel(probe, texel);
-    }
+// within the plane's thickness; src/cpu/mod.rs texel_shows; one fetch, counted by the caller).
+fn texel_shows(probe: u32, texel: vec2<u32>, v: vec3<f32>) -> bool {
     let plane = texel_plane(probe, texel);
     return !plane.sky && plane_holds(plane, v);
 }
@@ -1042,7 +1038,7 @@ fn among_samples(probe: u32, v: vec3<f32>) -> bool {
         }
         let texel = wrap_texel(i32(base.x) + i32(k & 1u), i32(base.y) + i32(k >> 1u), n);
         fetches += 1u;
-        if (!texel_shows(probe, texel, v, false)) {
+        if (!texel_shows(probe, texel, v)) {
             return false;
         }
     }
@@ -1070,12 +1066,22 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
             }
             let texel = wrap_texel(i32(base.x) + i32(k & 1u), i32(base.y) + i32(k >> 1u), n);
             fetches += 1u;
-            if (texel_shows(probe, texel, v, sky)) {
+            // One load of the texel's record (src/cpu/mod.rs filtered_radiance).
+            var shows = false;
+            var clear = false;
+            if (sky) {
+                let record = geometry[padded_index(n, probe, texel)];
+                shows = record_is_sky(record);
+                clear = record_is_clear_sky(record);
+            } else {
+                shows = texel_shows(probe, texel, v);
+            }
+            if (shows) {
                 fetches += 1u;
                 let read = w * radiance_at(probe, texel);
                 sum += read;
                 weight += w;
-                if (sky && clear_sky_texel(probe, texel)) {
+                if (clear) {
                     clear_sum += read;
                     clear_weight += w;
                 }
