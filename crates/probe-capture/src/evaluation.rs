@@ -382,6 +382,24 @@ pub fn ggx_sub_lobes(
         .collect()
 }
 
+/// The roughness whose cone ([`probe_octa::ggx_lobe_angle`] of its `α`) is the cone of one
+/// of `sectors` parts of a `roughness` lobe ([`ggx_sub_lobes`]): the lobe's angle over
+/// `√sectors` (a part has `1/sectors` of the lobe's solid angle). What a prefiltered lookup
+/// of one part blurs by.
+///
+/// ```
+/// let whole = 0.3;
+/// assert_eq!(probe_capture::sub_lobe_roughness(whole, 1), whole);
+/// assert!(probe_capture::sub_lobe_roughness(whole, 4) < whole);
+/// ```
+pub fn sub_lobe_roughness(roughness: f32, sectors: u32) -> f32 {
+    if sectors <= 1 {
+        return roughness;
+    }
+    let angle = probe_octa::ggx_lobe_angle(roughness * roughness) / (sectors as f32).sqrt();
+    probe_octa::ggx_alpha_for_angle(angle).sqrt()
+}
+
 /// Secondary reflection rays: `rays_per_pixel` per G-buffer pixel that hit a front face (or a
 /// double-sided surface), mirror or GGX-sampled with a seeded generator per pixel. Rays whose
 /// direction falls below the surface are left out (they contribute nothing), so a pixel may

@@ -313,33 +313,101 @@ fn albedo_quadrature(roughness: f32, n_dot_v: f32) -> (f32, f32) {
 /// straddles geometry the one ray does not see.
 pub fn filtered_specular_rays(scene: &Scene, gbuffer: &GBuffer) -> SpecularRays {
     rays_of_front_pixels(gbuffer, |pixel, s| {
-        let response = SurfaceResponse::at(scene, &s);
-        let (n, v) = (s.shading_normal, s.towards_camera);
-        let n_dot_v = n.dot(v).max(0.0);
-        let mirror = (2.0 * n_dot_v * n - v).normalize();
-        let (direction, roughness) = if response.roughness < MIRROR_ROUGHNESS {
-            (mirror, 0.0)
-        } else {
-            let alpha = response.roughness * response.roughness;
-            let smoothness = (1.0 - alpha).clamp(0.0, 1.0);
-            let pull = smoothness * (smoothness.sqrt() + alpha);
-            (n.lerp(mirror, pull).normalize(), response.roughness)
-        };
-        if direction.dot(s.geometric_normal) <= 0.0 {
-            return Vec::new();
-        }
-        let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
-        vec![(
-            EvaluationRay {
-                pixel: pixel as u32,
-                origin: ray.origin,
-                direction: ray.direction,
-                weight: 1.0,
-            },
-            specular_albedo(&response, n_dot_v),
-            roughness,
-        )]
+        filtered_specular_rays_of(&SurfaceResponse::at(scene, &s), pixel, &s)
     })
+}
+
+/// The one ray of [`filtered_specular_rays`] for one pixel (none when its direction falls
+/// below the surface): the ray, its tint and its roughness.
+fn filtered_specular_rays_of(
+    response: &SurfaceResponse,
+    pixel: usize,
+    s: &GBufferSample,
+) -> Vec<(EvaluationRay, Vec3, f32)> {
+    let (n, v) = (s.shading_normal, s.towards_camera);
+    let n_dot_v = n.dot(v).max(0.0);
+    let mirror = (2.0 * n_dot_v * n - v).normalize();
+    let (direction, roughness) = if response.roughness < MIRROR_ROUGHNESS {
+        (mirror, 0.0)
+    } else {
+        let alpha = response.roughness * response.roughness;
+        let smoothness = (1.0 - alpha).clamp(0.0, 1.0);
+        let pull = smoothness * (smoothness.sqrt() + alpha);
+        (n.lerp(mirror, pull).normalize(), response.roughness)
+    };
+    if direction.dot(s.geometric_normal) <= 0.0 {
+        return Vec::new();
+    }
+    let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+    vec![(
+        EvaluationRay {
+            pixel: pixel as u32,
+            origin: ray.origin,
+            direction: ray.direction,
+            weight: 1.0,
+        },
+        specular_albedo(response, n_dot_v),
+        roughness,
+    )]
+}
+
+/// [`filtered_specular_rays`] with each glossy lobe cut into `sectors` parts by azimuth
+/// ([`evaluation::ggx_sub_lobes`]): one ray along each part's mean, weighted by the part's
+/// share of the lobe's weight (the shares of a pixel sum to 1, so the pixel keeps the lobe's
+/// albedo as its tint), with the cone of one part ([`evaluation::sub_lobe_roughness`]) as the
+/// ray's roughness. Mirrors keep their one ray; `sectors` 1 is [`filtered_specular_rays`].
+/// More rays per pixel for less of the bias one cone has where the lobe straddles geometry.
+///
+/// # Errors
+/// [`RenderError::InvalidSetting`] for `sectors` outside 1 to [`evaluation::MAX_LOBE_SECTORS`].
+pub fn filtered_specular_sub_lobe_rays(
+    scene: &Scene,
+    gbuffer: &GBuffer,
+    sectors: u32,
+) -> Result<SpecularRays, RenderError> {
+    if !(1..=evaluation::MAX_LOBE_SECTORS).contains(&sectors) {
+        return Err(RenderError::InvalidSetting {
+            parameter: "sectors",
+            value: sectors.to_string(),
+            reason: "must be from 1 to 8 (rays per glossy pixel)",
+        });
+    }
+    if sectors == 1 {
+        return Ok(filtered_specular_rays(scene, gbuffer));
+    }
+    Ok(rays_of_front_pixels(gbuffer, |pixel, s| {
+        let response = SurfaceResponse::at(scene, &s);
+        if response.roughness < MIRROR_ROUGHNESS {
+            return filtered_specular_rays_of(&response, pixel, &s);
+        }
+        let n_dot_v = s.shading_normal.dot(s.towards_camera).max(0.0);
+        let parts = evaluation::ggx_sub_lobes(
+            s.towards_camera,
+            s.shading_normal,
+            s.geometric_normal,
+            response.roughness,
+            sectors,
+        );
+        let total: f32 = parts.iter().map(|(_, w)| w).sum();
+        let tint = specular_albedo(&response, n_dot_v);
+        let roughness = evaluation::sub_lobe_roughness(response.roughness, sectors);
+        parts
+            .into_iter()
+            .map(|(direction, share)| {
+                let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+                (
+                    EvaluationRay {
+                        pixel: pixel as u32,
+                        origin: ray.origin,
+                        direction: ray.direction,
+                        weight: share / total,
+                    },
+                    tint,
+                    roughness,
+                )
+            })
+            .collect()
+    }))
 }
 
 /// The direct part of the final image: each front-facing pixel's emission plus its diffuse
@@ -584,6 +652,59 @@ mod tests {
             filtered.roughness.iter().all(|&r| r == 1.0),
             "the box is rough"
         );
+    }
+
+    /// Sub-lobe rays keep each glossy pixel's whole lobe: per pixel the weights sum to 1, at
+    /// most `sectors` rays share the filtered ray's tint, each with one part's cone; mirrors
+    /// and one sector are the filtered rays; 0 and 9 sectors are refused.
+    #[test]
+    fn sub_lobe_specular_rays_keep_each_pixels_lobe() {
+        let scene = Scene::builtin("colonnade").unwrap();
+        let gbuffer = crate::render_gbuffer(&scene, &scene.default_camera(), 16, 12).unwrap();
+        let one = filtered_specular_rays(&scene, &gbuffer);
+        assert_eq!(
+            filtered_specular_sub_lobe_rays(&scene, &gbuffer, 1).unwrap(),
+            one
+        );
+        for sectors in [0, evaluation::MAX_LOBE_SECTORS + 1] {
+            assert!(filtered_specular_sub_lobe_rays(&scene, &gbuffer, sectors).is_err());
+        }
+        for sectors in 2..=evaluation::MAX_LOBE_SECTORS {
+            let split = filtered_specular_sub_lobe_rays(&scene, &gbuffer, sectors).unwrap();
+            let mut split_pixels = 0;
+            for pixel in 0..gbuffer.pixels.len() as u32 {
+                let of = |rays: &SpecularRays| -> Vec<usize> {
+                    (0..rays.rays.len())
+                        .filter(|&i| rays.rays[i].pixel == pixel)
+                        .collect()
+                };
+                let (parts, whole) = (of(&split), of(&one));
+                if parts.is_empty() {
+                    continue;
+                }
+                assert!(parts.len() <= sectors as usize, "pixel {pixel}");
+                let total: f32 = parts.iter().map(|&i| split.rays[i].weight).sum();
+                assert!((total - 1.0).abs() < 1e-4, "pixel {pixel}: {total}");
+                let Some(&w) = whole.first() else { continue };
+                let whole_roughness = one.roughness[w];
+                for &i in &parts {
+                    assert_eq!(split.tints[i], one.tints[w], "pixel {pixel}");
+                    let expected = if whole_roughness == 0.0 {
+                        0.0
+                    } else {
+                        evaluation::sub_lobe_roughness(whole_roughness, sectors)
+                    };
+                    assert_eq!(split.roughness[i], expected, "pixel {pixel}");
+                }
+                if whole_roughness == 0.0 {
+                    assert_eq!(parts.len(), 1, "a mirror pixel keeps one ray");
+                } else if parts.len() > 1 {
+                    split_pixels += 1;
+                    assert!(split.roughness[parts[0]] < whole_roughness);
+                }
+            }
+            assert!(split_pixels > 0, "{sectors} sectors split no lobe");
+        }
     }
 
     #[test]

@@ -115,12 +115,12 @@ pub use environment::Environment;
 pub use evaluation::{
     EvaluationRay, GBuffer, GBufferSample, MAX_LOBE_SECTORS, ReferenceSample, Reflection,
     TileOrder, accumulate_rays, ggx_lobe_mean, ggx_sub_lobes, reflection_rays, render_gbuffer,
-    trace_reference,
+    sub_lobe_roughness, trace_reference,
 };
 pub use final_image::{
     DIELECTRIC_F0, FinalParts, MIRROR_ROUGHNESS, SpecularRays, SurfaceResponse, diffuse_reference,
-    direct_image, filtered_specular_rays, fresnel_schlick, reference_final, specular_albedo,
-    specular_rays,
+    direct_image, filtered_specular_rays, filtered_specular_sub_lobe_rays, fresnel_schlick,
+    reference_final, specular_albedo, specular_rays,
 };
 pub use image::{Image, ImageError};
 pub use preview::{PreviewError, PreviewPaths};

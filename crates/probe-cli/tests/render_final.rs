@@ -122,8 +122,9 @@ fn diffuse_options_and_glossy_blend_reach_the_final_image() {
     assert!(!out.exists(), "a refused render wrote {}", out.display());
 }
 
-/// `--sectors` cuts a filtered lobe into narrower cones: it changes a filtered glossy render,
-/// and is refused in one line without `--filtered` or outside 1 to 8.
+/// `--sectors` cuts a filtered lobe into narrower cones: it changes a filtered glossy render
+/// and the final image's filtered specular, and is refused in one line without `--filtered`,
+/// with stochastic specular rays, or outside 1 to 8.
 #[test]
 fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
     let root = tempfile::tempdir().unwrap();
@@ -152,9 +153,34 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
         std::fs::read(&one_path).unwrap() != std::fs::read(&two_path).unwrap(),
         "--sectors 2 did not change the filtered render"
     );
+    // The final image's filtered specular takes them too; stochastic specular refuses them.
+    let final_image = ["--component", "final"];
+    let (one, one_path) = render("final-one", &final_image);
+    assert!(one.status.success(), "{}", stderr(&one));
+    let (two, two_path) = render(
+        "final-two",
+        &[&final_image[..], &["--sectors", "2"]].concat(),
+    );
+    assert!(two.status.success(), "{}", stderr(&two));
+    assert!(
+        std::fs::read(&one_path).unwrap() != std::fs::read(&two_path).unwrap(),
+        "--sectors 2 did not change the final image's filtered specular"
+    );
     for (name, extra) in [
         ("unfiltered", vec!["--sectors", "2"]),
         ("too-many", [&filtered[..], &["--sectors", "9"]].concat()),
+        (
+            "final-stochastic",
+            [
+                &final_image[..],
+                &["--specular", "stochastic", "--sectors", "2"],
+            ]
+            .concat(),
+        ),
+        (
+            "final-too-many",
+            [&final_image[..], &["--sectors", "9"]].concat(),
+        ),
     ] {
         let (output, out) = render(name, &extra);
         assert!(!output.status.success(), "{name} was accepted");

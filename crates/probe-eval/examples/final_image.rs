@@ -6,13 +6,15 @@
 //!
 //! ```text
 //! cargo run --release -p probe-eval --example final_image -- SCENE CAMERA OUT \
-//!     [--res N] [--size WxH] [--spp N] LABEL=PROBES.json...
+//!     [--res N] [--size WxH] [--spp N] [--sectors K] LABEL=PROBES.json...
 //! ```
 //!
 //! `SCENE` is a glTF file or `builtin:NAME`; `PROBES.json` is what `probes place --out`
 //! writes. Each set is rendered with filtered specular rays blended over the default 6 probes
 //! (`filtered-blend-6`), filtered rays read from the answering probe alone
-//! (`filtered-one-probe`) and stochastic specular rays (`stochastic`; one per pixel). Writes
+//! (`filtered-one-probe`) and stochastic specular rays (`stochastic`; one per pixel); with
+//! `--sectors K` (2 to 8) also filtered rays over the default blend with each glossy lobe cut
+//! into K narrower cones (`filtered-blend-6-sectors-K`, `FinalOptions::specular_sectors`). Writes
 //! to `OUT/`: `reference.png`, and per set and mode `LABEL_MODE.png` (probes | reference |
 //! error map, at the reference's exposure) and `LABEL_MODE_parts.png` (direct, diffuse,
 //! specular through the probes, then the reference's), and prints a Markdown table. The bakes are kept
@@ -42,6 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let resolution: u32 = take("--res").map_or(Ok(128), |v| v.parse())?;
     let spp: u32 = take("--spp").map_or(Ok(256), |v| v.parse())?;
+    let sectors: u32 = take("--sectors").map_or(Ok(1), |v| v.parse())?;
     let (width, height) = match take("--size") {
         Some(size) => {
             let (w, h) = size.split_once('x').ok_or("--size WxH")?;
@@ -51,7 +54,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let [scene_spec, camera_name, out, sets @ ..] = &args[..] else {
         return Err(
-            "usage: final_image SCENE CAMERA OUT [--res N] [--size WxH] [--spp N] \
+            "usage: final_image SCENE CAMERA OUT [--res N] [--size WxH] [--spp N] [--sectors K] \
                     LABEL=PROBES.json..."
                 .into(),
         );
@@ -126,17 +129,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         // part's near-field correction off), read from the answering probe alone, and
         // stochastic: one run, so the ratios between them share the load.
         let blended = FinalOptions::default().glossy_blend;
-        for (specular, glossy_blend, parallax) in [
-            (SpecularMode::Filtered, blended, true),
-            (SpecularMode::Filtered, blended, false),
-            (SpecularMode::Filtered, 0, true),
-            (SpecularMode::Stochastic, blended, true),
-        ] {
+        let mut modes = vec![
+            (SpecularMode::Filtered, blended, true, 1),
+            (SpecularMode::Filtered, blended, false, 1),
+            (SpecularMode::Filtered, 0, true, 1),
+            (SpecularMode::Stochastic, blended, true, 1),
+        ];
+        if sectors > 1 {
+            modes.insert(1, (SpecularMode::Filtered, blended, true, sectors));
+        }
+        for (specular, glossy_blend, parallax, specular_sectors) in modes {
             let mut mode = match (specular, glossy_blend) {
                 (SpecularMode::Filtered, 0) => "filtered-one-probe".to_owned(),
                 (SpecularMode::Filtered, k) => format!("filtered-blend-{k}"),
                 (SpecularMode::Stochastic, _) => specular_name(specular).to_owned(),
             };
+            if specular_sectors > 1 {
+                mode.push_str(&format!("-sectors-{specular_sectors}"));
+            }
             if !parallax {
                 mode.push_str("+no-parallax");
             }
@@ -149,6 +159,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 },
                 specular,
                 glossy_blend,
+                specular_sectors,
                 diffuse: probe_trace_gpu::DiffuseOptions {
                     parallax,
                     ..defaults.diffuse

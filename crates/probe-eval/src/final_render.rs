@@ -36,7 +36,7 @@ use crate::pipeline::{BuiltIndex, Device, Selection, Tracer, light_field};
 use glam::Vec3;
 use probe_capture::{
     FinalParts, GBuffer, Image, ProbeBake, Shader, SurfaceResponse, TileOrder, direct_image,
-    filtered_specular_rays, specular_rays,
+    filtered_specular_sub_lobe_rays, specular_rays,
 };
 use probe_scene::Scene;
 use probe_trace_gpu::{
@@ -94,6 +94,11 @@ pub struct FinalOptions {
     /// Cornell box, Sponza and the Breakfast room against one probe (BENCHMARKS.md, "The
     /// final image").
     pub glossy_blend: u32,
+    /// Rays per glossy pixel of [`SpecularMode::Filtered`], 1 to 8: each material's GGX lobe
+    /// cut by azimuth into this many parts, one narrower cone each
+    /// ([`probe_capture::filtered_specular_sub_lobe_rays`]); mirrors keep one ray. Default 1.
+    /// Must be 1 with [`SpecularMode::Stochastic`].
+    pub specular_sectors: u32,
     /// Specular rays per pixel of [`SpecularMode::Stochastic`] (materials rougher than
     /// [`probe_capture::MIRROR_ROUGHNESS`]; mirrors take one).
     pub specular_rays_per_pixel: u32,
@@ -112,6 +117,7 @@ impl Default for FinalOptions {
             diffuse: DiffuseOptions::default(),
             specular: SpecularMode::Filtered,
             glossy_blend: TraceOptions::default().glossy_blend,
+            specular_sectors: 1,
             specular_rays_per_pixel: 1,
             emitter_samples: 16,
             seed: 0,
@@ -232,8 +238,17 @@ pub fn render_final(
                 .into(),
         });
     }
+    if !filtered && options.specular_sectors != 1 {
+        return Err(EvalError::InvalidSetting {
+            parameter: "specular_sectors",
+            value: options.specular_sectors.to_string(),
+            reason: "sectors cut a filtered lobe; stochastic specular rays take \
+                     specular_rays_per_pixel instead"
+                .into(),
+        });
+    }
     let rays = if filtered {
-        filtered_specular_rays(scene, gbuffer)
+        filtered_specular_sub_lobe_rays(scene, gbuffer, options.specular_sectors)?
     } else {
         specular_rays(
             scene,

@@ -98,13 +98,7 @@ pub fn sub_lobe_rays(
         .collect())
 }
 
-/// The roughness whose cone ([`probe_octa::ggx_lobe_angle`] of its `α`) is the cone of one
-/// of `sectors` parts of a `roughness` lobe: the lobe's angle over `√sectors` (a part has
-/// `1/sectors` of the lobe's solid angle).
-pub fn sub_lobe_roughness(roughness: f32, sectors: u32) -> f32 {
-    let angle = probe_octa::ggx_lobe_angle(roughness * roughness) / (sectors.max(1) as f32).sqrt();
-    probe_octa::ggx_alpha_for_angle(angle).sqrt()
-}
+pub use probe_capture::sub_lobe_roughness;
 
 #[cfg(test)]
 mod tests {

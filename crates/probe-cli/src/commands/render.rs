@@ -116,10 +116,12 @@ pub struct Args {
     /// footprint, weighted by the lobe's albedo; no noise. `--rays-per-pixel` is ignored.
     #[arg(long)]
     pub filtered: bool,
-    /// With `--filtered`: rays per pixel, 1 to 8. The GGX lobe is cut by azimuth into this
-    /// many parts, one narrower cone each (`probe_eval::glossy::sub_lobe_rays`): a
-    /// speed–accuracy knob between one cone and many stochastic rays (Sponza at roughness
-    /// 0.3: 1 → 2.71e-3, 2 → 2.33e-3, 4 → 2.10e-3; 16 stochastic rays 2.23e-3).
+    /// With `--filtered`, or `final`'s filtered specular: rays per pixel, 1 to 8. The GGX
+    /// lobe is cut by azimuth into this many parts, one narrower cone each
+    /// (`probe_eval::glossy::sub_lobe_rays`; for `final`, each material's lobe, mirrors
+    /// keeping one ray): a speed–accuracy knob between one cone and many stochastic rays
+    /// (Sponza at roughness 0.3: 1 → 2.71e-3, 2 → 2.33e-3, 4 → 2.10e-3; 16 stochastic rays
+    /// 2.23e-3).
     #[arg(long, default_value_t = 1)]
     pub sectors: u32,
     /// Probes blended per filtered ray (`--filtered`, and `final`'s filtered specular): the
@@ -248,6 +250,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 }),
             ),
             ("shading_points", json!(rendered.shading_points)),
+            ("sectors", json!(args.sectors)),
             ("rays", json!(summary.rays)),
             (
                 "hit_rate",
@@ -525,6 +528,15 @@ fn final_component(
             reason: "the bake's probes are not a regular grid; use svo or voronoi".into(),
         });
     }
+    if args.sectors != 1 && args.specular == SpecularArg::Stochastic {
+        return Err(CliError::InvalidArgument {
+            parameter: "--sectors",
+            value: args.sectors.to_string(),
+            reason: "sectors cut a filtered lobe: use --specular filtered, or \
+                     --rays-per-pixel for stochastic specular rays"
+                .into(),
+        });
+    }
     let index = build_index(scene, baked.positions(), args.svo_depth, grid, args.seed)?;
     let options = FinalOptions {
         tracer: match args.tracer {
@@ -540,6 +552,7 @@ fn final_component(
             SpecularArg::Stochastic => SpecularMode::Stochastic,
         },
         glossy_blend: args.glossy_blend,
+        specular_sectors: args.sectors,
         specular_rays_per_pixel: args.rays_per_pixel,
         emitter_samples: args.emitter_samples,
         seed: args.seed,
