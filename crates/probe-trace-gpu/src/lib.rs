@@ -272,7 +272,7 @@ pub use gpu::{
     WORKGROUP_SIZE, diffuse_bind_group_layout_entries, trace_bind_group_layout_entries,
 };
 pub use input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
-pub use packed::MAX_CONE_ANGLE;
+pub use packed::{GLOSSY_WIDE_TAN, MAX_CONE_ANGLE};
 pub use ray::{
     DiffuseOptions, DiffuseResult, RayRecord, RayResult, RayStatus, ShadingPoint, SurfaceQuery,
     Timing, TraceMethod, TraceOptions, TraceRay, TraceSummary,

@@ -1380,7 +1380,9 @@ pub(crate) struct TraceParams {
     pub bounds_max: [f32; 4],
     /// Start texel of the sky map in the radiance buffer ([`PackedField::sky_map`]).
     pub sky_map: u32,
-    pub pad0: u32,
+    /// [`GLOSSY_WIDE_TAN`]: a filtered hit whose cone footprint, seen from a blended probe,
+    /// is wider than this `tan` is read by that probe if it sees the hit or the ray's origin.
+    pub glossy_wide_tan: f32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -1549,11 +1551,23 @@ pub(crate) fn trace_params(
         bounds_min,
         bounds_max,
         sky_map: field.sky_map,
-        pad0: 0,
+        glossy_wide_tan: GLOSSY_WIDE_TAN,
         pad1: 0,
         pad2: 0,
     })
 }
+
+/// When a filtered glossy hit's cone footprint counts as wide for a probe of the blend
+/// (`TraceOptions::glossy_blend`): `t·tan φ ≥ r·GLOSSY_WIDE_TAN`, the footprint (radius
+/// `t·tan φ` at hit distance `t`, cone angle `φ`) seen from the probe `r` away wider than 45°.
+/// Such a probe reads the blurred region around the hit whether or not it sees the hit point
+/// itself, so it joins the blend if it sees the hit or the ray's origin, at its distance
+/// weight alone; a narrow footprint still needs the hit seen, weighted by the cosine it is
+/// seen at. Before, at roughness 1 (every material of Sponza and the Cornell box) a hit that
+/// none of the shading point's probes saw was read by one probe near the hit alone, whose
+/// wide read often looked away into the dark: single black pixels on Sponza's drapes
+/// (BENCHMARKS.md, "Wide footprints"). 0.4 to 2 gave the same images there.
+pub const GLOSSY_WIDE_TAN: f32 = 1.0;
 
 /// The widest cone (radians, from the axis) a filtered trace reads
 /// ([`crate::TraceOptions::glossy_roughness`]): just below 90°, which roughness 1 reaches. At

@@ -650,7 +650,9 @@ fn glossy_radiance(
 /// of the `k` nearest reads its prefiltered levels towards the hit (`hit` true, at `end`, the
 /// surface's `normal`) or, for a MISS, along `direction` where its own texel sees the sky;
 /// weights `(1 − d²/R²)²` (`R`: the `k+1`-th nearest probe's distance) times the cosine at
-/// which the probe sees the surface. `own`, the answering probe's read, stands where no
+/// which the probe sees the surface. Where the cone's footprint at the hit is wide as the
+/// probe sees it ([`crate::GLOSSY_WIDE_TAN`]), a probe that sees the ray's origin instead of
+/// the hit reads too, at its distance weight alone. `own`, the answering probe's read, stands where no
 /// blended probe sees the hit (or blending is off).
 #[allow(
     clippy::too_many_arguments,
@@ -702,12 +704,24 @@ fn blended_radiance(
             if r <= 0.0 {
                 continue;
             }
-            let facing = -normal.dot(v / r);
-            if facing <= 0.0 || !sees_point(field, probe, end, false, fetches) {
-                continue;
-            }
+            let w = if t * params.glossy_tan >= r * params.glossy_wide_tan {
+                // A wide footprint: the probe reads the region around the hit, whether or
+                // not it sees the hit itself; it must share the free space of the ray's
+                // start or see the hit.
+                if !sees_point(field, probe, end, false, fetches)
+                    && !sees_point(field, probe, origin, false, fetches)
+                {
+                    continue;
+                }
+                falloff
+            } else {
+                let facing = -normal.dot(v / r);
+                if facing <= 0.0 || !sees_point(field, probe, end, false, fetches) {
+                    continue;
+                }
+                falloff * facing
+            };
             let cell = direction_cell(field.resolution, v / r);
-            let w = falloff * facing;
             let read = glossy_radiance(field, params, probe, v, false, cell, t, fetches);
             (w, read)
         } else {

@@ -69,7 +69,7 @@ struct TraceParams {
     bounds_min: vec4<f32>,
     bounds_max: vec4<f32>,
     sky_map: u32,
-    pad0: u32,
+    glossy_wide_tan: f32,
     pad1: u32,
     pad2: u32,
 }
@@ -1246,7 +1246,8 @@ fn nearest_probes(start: u32, count: u32, p: vec3<f32>, k_in: u32) -> u32 {
 }
 
 // A filtered glossy answer or estimate blended over the probes nearest to the ray's origin
-// (src/cpu/mod.rs blended_radiance): `own` stands where none sees the hit.
+// (src/cpu/mod.rs blended_radiance): `own` stands where none sees the hit (or, for a wide
+// footprint, params.glossy_wide_tan, the ray's origin).
 fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec3<f32>, normal: vec3<f32>, t: f32, own: vec3<f32>) -> vec3<f32> {
     if (params.glossy_levels == 0u || params.glossy_blend == 0u || params.kd_count == 0u) {
         return own;
@@ -1276,12 +1277,19 @@ fn blended_radiance(origin: vec3<f32>, direction: vec3<f32>, hit: bool, end: vec
             if (r <= 0.0) {
                 continue;
             }
-            let facing = -dot(normal, v / r);
-            if (facing <= 0.0 || !sees_point(probe, end, false)) {
-                continue;
+            var w = falloff;
+            if (t * params.glossy_tan >= r * params.glossy_wide_tan) {
+                if (!sees_point(probe, end, false) && !sees_point(probe, origin, false)) {
+                    continue;
+                }
+            } else {
+                let facing = -dot(normal, v / r);
+                if (facing <= 0.0 || !sees_point(probe, end, false)) {
+                    continue;
+                }
+                w *= facing;
             }
             let cell = texel_containing(params.resolution, v / r);
-            let w = falloff * facing;
             sum += w * glossy_radiance(probe, v, false, cell, t);
             total += w;
         } else {
