@@ -84,6 +84,18 @@ pub struct EvaluationRay {
 }
 
 impl EvaluationRay {
+    /// The ray of `pixel` leaving its G-buffer sample `s` along `direction`, offset off the
+    /// surface along its geometric normal ([`Ray::from_surface`]), with its share `weight`.
+    pub fn leaving(pixel: usize, s: &GBufferSample, direction: Vec3, weight: f32) -> Self {
+        let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
+        EvaluationRay {
+            pixel: pixel as u32,
+            origin: ray.origin,
+            direction: ray.direction,
+            weight,
+        }
+    }
+
     /// The ray as probe-scene casts it.
     pub fn ray(&self) -> Ray {
         Ray {
@@ -466,13 +478,7 @@ pub fn reflection_rays(
                 if weight <= 0.0 || direction.dot(s.geometric_normal) <= 0.0 {
                     continue;
                 }
-                let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
-                rays.push(EvaluationRay {
-                    pixel: pixel as u32,
-                    origin: ray.origin,
-                    direction: ray.direction,
-                    weight: weight * share,
-                });
+                rays.push(EvaluationRay::leaving(pixel, &s, direction, weight * share));
             }
             rays.into_iter()
         })

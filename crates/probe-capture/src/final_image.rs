@@ -156,14 +156,8 @@ pub fn specular_rays(
         };
         let mut push = |direction: Vec3, weight: f32, tint: Vec3| {
             if weight > 0.0 && direction.dot(s.geometric_normal) > 0.0 {
-                let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
                 rays.push((
-                    EvaluationRay {
-                        pixel: pixel as u32,
-                        origin: ray.origin,
-                        direction: ray.direction,
-                        weight,
-                    },
+                    EvaluationRay::leaving(pixel, &s, direction, weight),
                     tint,
                     lobe_roughness,
                 ));
@@ -338,14 +332,8 @@ fn filtered_specular_rays_of(
     if direction.dot(s.geometric_normal) <= 0.0 {
         return Vec::new();
     }
-    let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
     vec![(
-        EvaluationRay {
-            pixel: pixel as u32,
-            origin: ray.origin,
-            direction: ray.direction,
-            weight: 1.0,
-        },
+        EvaluationRay::leaving(pixel, s, direction, 1.0),
         specular_albedo(response, n_dot_v),
         roughness,
     )]
@@ -394,14 +382,8 @@ pub fn filtered_specular_sub_lobe_rays(
         parts
             .into_iter()
             .map(|(direction, share)| {
-                let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
                 (
-                    EvaluationRay {
-                        pixel: pixel as u32,
-                        origin: ray.origin,
-                        direction: ray.direction,
-                        weight: share / total,
-                    },
+                    EvaluationRay::leaving(pixel, &s, direction, share / total),
                     tint,
                     roughness,
                 )

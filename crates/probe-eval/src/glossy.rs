@@ -6,7 +6,6 @@
 //! [`probe_capture::ggx_lobe_mean`] integrates by a fixed quadrature (no noise).
 
 use probe_capture::{EvaluationRay, GBuffer, RenderError};
-use probe_scene::Ray;
 use rayon::prelude::*;
 
 /// Prefiltered glossy levels a filtered trace uploads
@@ -81,15 +80,7 @@ pub fn sub_lobe_rays(
                     sectors,
                 )
                 .into_iter()
-                .map(|(direction, weight)| {
-                    let ray = Ray::from_surface(s.position, s.geometric_normal, direction);
-                    EvaluationRay {
-                        pixel: pixel as u32,
-                        origin: ray.origin,
-                        direction: ray.direction,
-                        weight,
-                    }
-                })
+                .map(|(direction, weight)| EvaluationRay::leaving(pixel, &s, direction, weight))
                 .collect(),
                 None => Vec::new(),
             };

@@ -652,8 +652,8 @@ fn glossy_radiance(
 /// weights `(1 − d²/R²)²` (`R`: the `k+1`-th nearest probe's distance) times the cosine at
 /// which the probe sees the surface. Where the cone's footprint at the hit is wide as the
 /// probe sees it ([`crate::GLOSSY_WIDE_TAN`]), a probe that sees the ray's origin instead of
-/// the hit reads too, at its distance weight alone. `own`, the answering probe's read, stands where no
-/// blended probe sees the hit (or blending is off).
+/// the hit reads too, at its distance weight alone. `own`, the answering probe's read, stands
+/// where no blended probe qualifies (or blending is off).
 #[allow(
     clippy::too_many_arguments,
     reason = "one ray's end and where to read it"
