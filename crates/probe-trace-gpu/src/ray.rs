@@ -149,8 +149,9 @@ pub struct RayResult {
     /// probe or one of its nearest), the sky along the ray from a probe that sees clear sky
     /// that way, else the mean of those that do (Miss), or an estimate (Unknown).
     pub radiance: Vec3,
-    /// The probe that answered (Hit, Miss) or gave the fallback radiance (Unknown); `None`
-    /// when no probe was tried.
+    /// The probe that answered (Hit, Miss) or gave the estimate (Unknown; for a ray no probe
+    /// could start, the probe nearest its start, which read along it); `None` only when the
+    /// field holds no probe to ask.
     pub probe: Option<u32>,
     /// Single-probe traces run for this ray.
     pub probes_tried: u32,

@@ -1190,6 +1190,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
     let mut reselect = true;
     let (mut anchor, mut extension, mut extended) = (NO_PROBE, 0u32, false);
     let mut estimating = false;
+    // Estimating with no probe that could start the ray: read along it, no march.
+    let mut unstarted = false;
     let (mut next, mut tried, mut fetches) = (0u32, 0u32, 0u32);
     let mut fallback = NO_PROBE;
     let mut record = RayRecord {
@@ -1239,7 +1241,21 @@ pub(crate) fn trace_ray<O: RayObserver>(
             record.position = here.to_array();
             record.probes_tried = tried;
             if probe == NO_PROBE {
-                break;
+                // No probe could start the ray (none sees it leave, none sees where it
+                // starts): the probe nearest its start reads along it, as an environment
+                // map would, prefiltered at the cone's angle (it read black before:
+                // BENCHMARKS.md, "Rays no probe can start").
+                // Where nothing started, `here` is the ray's start and `anchor` the probe
+                // nearest it (set when the list was extended; else the list's first).
+                probe = if anchor != NO_PROBE || list.len == 0 {
+                    anchor
+                } else {
+                    list.probes[0]
+                };
+                unstarted = true;
+                if probe == NO_PROBE {
+                    break;
+                }
             }
         } else {
             probe = selector.candidate(&list, anchor, failed, next);
@@ -1267,9 +1283,21 @@ pub(crate) fn trace_ray<O: RayObserver>(
         } else {
             March::Strict
         };
-        let mut answer = match observer.fetch_log() {
-            Some(log) => trace_probe(field, params, probe, ray, t, march, log),
-            None => trace_probe(field, params, probe, ray, t, march, ()),
+        let mut answer = if unstarted {
+            ProbeAnswer {
+                code: UNKNOWN,
+                t,
+                cell: UVec2::ZERO,
+                normal: 0,
+                fetches: 0,
+                end_position: 0.0,
+                guessed_hidden: false,
+            }
+        } else {
+            match observer.fetch_log() {
+                Some(log) => trace_probe(field, params, probe, ray, t, march, log),
+                None => trace_probe(field, params, probe, ray, t, march, ()),
+            }
         };
         fetches += answer.fetches;
         if estimating {

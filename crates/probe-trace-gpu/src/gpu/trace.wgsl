@@ -1533,6 +1533,8 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     var extension = 0u;
     var extended = false;
     var estimating = false;
+    // Estimating with no probe that could start the ray: read along it, no march.
+    var unstarted = false;
     var next = 0u;
     var tried = 0u;
     var fallback = NO_PROBE;
@@ -1594,7 +1596,18 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 record.position = here;
                 record.probes_tried = tried;
                 if (probe == NO_PROBE) {
-                    break;
+                    // No probe could start the ray: the probe nearest its start reads along
+                    // it (src/cpu/mod.rs trace_ray).
+                    // `anchor`: the probe nearest the start, where the list was extended
+                    // (one call site of the nearest-probe search).
+                    probe = anchor;
+                    if (probe == NO_PROBE && list.len > 0u) {
+                        probe = list.probes[0];
+                    }
+                    unstarted = true;
+                    if (probe == NO_PROBE) {
+                        break;
+                    }
                 }
             } else {
                 probe = candidate(list, anchor, failed, next);
@@ -1627,7 +1640,13 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             march_ray.t_max = min(ray.t_max, t_exit);
             t_from = record.t;
         }
-        var answer = trace_probe(probe, march_ray, t_from, march);
+        var answer: ProbeAnswer;
+        if (unstarted) {
+            answer = ProbeAnswer(UNKNOWN, t, vec2<u32>(0u), 0u);
+            guessed_hidden = false;
+        } else {
+            answer = trace_probe(probe, march_ray, t_from, march);
+        }
         if (estimating) {
             let at = positions[probe].xyz;
             let near_hidden = !far_pass && answer.code == HIT && guessed_hidden;
