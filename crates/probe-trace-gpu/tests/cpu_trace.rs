@@ -293,6 +293,13 @@ fn hand_off_past_an_occluder() {
     }
 }
 
+/// A grid of `dims` probes at the centres of the cells dividing `scene`'s bounds.
+fn cell_centre_grid(scene: &Scene, dims: [u32; 3]) -> ProbeGrid {
+    let bounds = scene.bounds();
+    let spacing = bounds.size() / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
+    ProbeGrid::new(bounds.min + spacing * 0.5, spacing, dims).unwrap()
+}
+
 fn cornell_grid() -> ProbeGrid {
     ProbeGrid::new(
         Vec3::new(0.07, 0.07, 0.07),
@@ -615,8 +622,7 @@ fn unknown_estimates_average_two_guesses() {
     let scene = Scene::load(probe_testdata::scene_path(probe_testdata::GODOT_ROOM))
         .expect("the shared scenes");
     let bounds = scene.bounds();
-    let spacing = bounds.size() / Vec3::new(4.0, 2.0, 4.0);
-    let grid = ProbeGrid::new(bounds.min + spacing * 0.5, spacing, [4, 2, 4]).unwrap();
+    let grid = cell_centre_grid(&scene, [4, 2, 4]);
     let shade = albedo_shade(&scene);
     let sky = 100.0 * bounds.size().length();
     let bake = mini_capture(&scene, &grid.positions(), 64, sky, &shade);
@@ -668,9 +674,7 @@ fn unknown_estimates_average_two_guesses() {
 #[test]
 fn rays_no_probe_can_start_read_the_nearest_probe() {
     let scene = Scene::builtin("cornell").unwrap();
-    let bounds = scene.bounds();
-    let spacing = bounds.size() / 2.0;
-    let grid = ProbeGrid::new(bounds.min + spacing * 0.5, spacing, [2, 2, 2]).unwrap();
+    let grid = cell_centre_grid(&scene, [2, 2, 2]);
     let shade = albedo_shade(&scene);
     let bake = mini_capture(&scene, &grid.positions(), 64, 50.0, &shade);
     let rays = reflection_rays(&scene, &camera_rays(&scene, 192, 192));
@@ -717,9 +721,7 @@ fn rays_no_probe_can_start_read_the_nearest_probe() {
 #[test]
 fn hits_are_read_by_the_probe_that_sees_them_best() {
     let scene = Scene::builtin("cornell").unwrap();
-    let bounds = scene.bounds();
-    let spacing = bounds.size() / 4.0;
-    let grid = ProbeGrid::new(bounds.min + spacing * 0.5, spacing, [4, 4, 4]).unwrap();
+    let grid = cell_centre_grid(&scene, [4, 4, 4]);
     let shade = albedo_shade(&scene);
     let bake = mini_capture(&scene, &grid.positions(), 128, 1000.0, &shade);
     let rays = reflection_rays(&scene, &camera_rays(&scene, 96, 96));
