@@ -7,7 +7,7 @@ use glam::{Vec2, Vec3};
 use probe_index::{
     NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
 };
-use probe_scene::{Material, Ray, Scene, Triangle};
+use probe_scene::{Hit, Material, Ray, Scene, Triangle};
 use probe_testdata::Lcg;
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayStatus, TraceMethod, TraceOptions, TraceRay,
@@ -298,6 +298,13 @@ fn cell_centre_grid(scene: &Scene, dims: [u32; 3]) -> ProbeGrid {
     let bounds = scene.bounds();
     let spacing = bounds.size() / Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32);
     ProbeGrid::new(bounds.min + spacing * 0.5, spacing, dims).unwrap()
+}
+
+/// What `ray` truly sees: `shade` at its closest hit, else the test sky.
+fn exact_radiance(scene: &Scene, shade: &impl Fn(&Hit, Vec3) -> Vec3, ray: &Ray) -> Vec3 {
+    scene
+        .closest_hit(ray, f32::INFINITY)
+        .map_or(support::SKY, |h| shade(&h, ray.direction))
 }
 
 fn cornell_grid() -> ProbeGrid {
@@ -632,11 +639,7 @@ fn unknown_estimates_average_two_guesses() {
         .trace(&field, &to_trace_rays(&rays), &TraceOptions::default())
         .unwrap()
         .results;
-    let truth = |ray: &Ray| {
-        scene
-            .closest_hit(ray, f32::INFINITY)
-            .map_or(support::SKY, |h| shade(&h, ray.direction))
-    };
+    let truth = |ray: &Ray| exact_radiance(&scene, &shade, ray);
     let (mut unknown, mut differ, mut se_estimate, mut se_near) = (0usize, 0usize, 0.0, 0.0);
     for (ray, r) in rays.iter().zip(&results) {
         // A near guess that met something records its normal (else none).
@@ -683,11 +686,7 @@ fn rays_no_probe_can_start_read_the_nearest_probe() {
         .trace(&field, &to_trace_rays(&rays), &TraceOptions::default())
         .unwrap()
         .results;
-    let truth = |ray: &Ray| {
-        scene
-            .closest_hit(ray, f32::INFINITY)
-            .map_or(support::SKY, |h| shade(&h, ray.direction))
-    };
+    let truth = |ray: &Ray| exact_radiance(&scene, &shade, ray);
     let (mut unstarted, mut se_estimate, mut se_black) = (0usize, 0.0f64, 0.0f64);
     for (ray, r) in rays.iter().zip(&results) {
         // Not started: no probe traced it, and the estimate stands at its start.

@@ -264,6 +264,7 @@ fn parallel_map<T: Sync, U: Send + Default + Clone>(
 }
 
 /// What one probe concluded about the ray from `t_start` on.
+#[derive(Default)]
 struct ProbeAnswer {
     code: u32,
     t: f32,
@@ -1244,9 +1245,9 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 // No probe could start the ray (none sees it leave, none sees where it
                 // starts): the probe nearest its start reads along it, as an environment
                 // map would, prefiltered at the cone's angle (it read black before:
-                // BENCHMARKS.md, "Rays no probe can start").
-                // Where nothing started, `here` is the ray's start and `anchor` the probe
-                // nearest it (set when the list was extended; else the list's first).
+                // BENCHMARKS.md, "Rays no probe can start"). `here` is the ray's start
+                // and `anchor` the probe nearest it, found when the list was extended
+                // (with no extension, the list's first candidate).
                 probe = if anchor != NO_PROBE || list.len == 0 {
                     anchor
                 } else {
@@ -1287,11 +1288,7 @@ pub(crate) fn trace_ray<O: RayObserver>(
             ProbeAnswer {
                 code: UNKNOWN,
                 t,
-                cell: UVec2::ZERO,
-                normal: 0,
-                fetches: 0,
-                end_position: 0.0,
-                guessed_hidden: false,
+                ..ProbeAnswer::default()
             }
         } else {
             match observer.fetch_log() {

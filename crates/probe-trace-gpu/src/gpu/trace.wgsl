@@ -1596,10 +1596,9 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
                 record.position = here;
                 record.probes_tried = tried;
                 if (probe == NO_PROBE) {
-                    // No probe could start the ray: the probe nearest its start reads along
-                    // it (src/cpu/mod.rs trace_ray).
-                    // `anchor`: the probe nearest the start, where the list was extended
-                    // (one call site of the nearest-probe search).
+                    // No probe could start the ray: the probe nearest its start (`anchor`,
+                    // found when the list was extended: one call site of the nearest-probe
+                    // search; else the list's first) reads along it (src/cpu/mod.rs trace_ray).
                     probe = anchor;
                     if (probe == NO_PROBE && list.len > 0u) {
                         probe = list.probes[0];
