@@ -406,6 +406,19 @@ pub struct ProbeStats {
     pub min_distance: f32,
 }
 
+impl ProbeStats {
+    /// The back-face share above which a probe counts as inside geometry (DDGI's fixed-ray
+    /// back-face threshold, 0.25).
+    pub const INSIDE_GEOMETRY_BACK_FACE_SHARE: f32 = 0.25;
+
+    /// Whether the probe sits inside geometry: more than a quarter of what it sees are back
+    /// faces. Diffuse shading leaves such probes out of its blend (DDGI's inactive probes;
+    /// `probe_trace_gpu::IrradianceField::inside_geometry`).
+    pub fn inside_geometry(&self) -> bool {
+        self.back_face_share > Self::INSIDE_GEOMETRY_BACK_FACE_SHARE
+    }
+}
+
 /// What one texel-centre ray saw.
 struct TexelGeometry {
     distance: f32,

@@ -646,6 +646,10 @@ impl Device {
         interpolation: &Interpolation<'_>,
     ) -> Result<AnyIrradiance, EvalError> {
         let settings = baked.settings();
+        // DDGI's inactive probes: those whose baked view is mostly back faces sit inside
+        // geometry (`probes bake` warns of them) and are left out of the blend.
+        let inside_geometry: Vec<bool> =
+            baked.stats().iter().map(|s| s.inside_geometry()).collect();
         let field = IrradianceField {
             positions: baked.positions(),
             irradiance_resolution: settings.irradiance_resolution,
@@ -653,6 +657,7 @@ impl Device {
             moments_resolution: settings.moments_resolution,
             moments: baked.moments(),
             surfels: baked.surfels(),
+            inside_geometry: &inside_geometry,
         };
         Ok(self.tracer.upload_irradiance(&field, interpolation)?)
     }

@@ -392,6 +392,7 @@ mod tests {
                 moments_resolution: m,
                 moments: &moments,
                 surfels,
+                inside_geometry: &[],
             };
             let packed = PackedIrradiance::new(&low, &interpolation).unwrap();
             let footprint = DeviceFootprint::irradiance(

@@ -104,6 +104,13 @@ pub struct IrradianceField<'a> {
     /// empty for none. With them, [`crate::DiffuseOptions::parallax`] corrects each probe's
     /// irradiance for the point's offset from the probe.
     pub surfels: &'a [probe_octa::Surfel],
+    /// Optional: probes to leave out of every blend, one flag per probe (empty for none).
+    /// DDGI's inactive probes: a probe inside geometry sees the inside of a closed mesh, and
+    /// its black irradiance would darken every surface around it; flag probes whose baked
+    /// view is mostly back faces (`probe_capture::ProbeStats::inside_geometry`: a back-face
+    /// share above 0.25, as `probes bake` warns). Their neighbours blend in their place (BENCHMARKS.md,
+    /// "Probes inside geometry").
+    pub inside_geometry: &'a [bool],
 }
 
 /// Which probes a ray tries, in what order (the `probe-index` structures, uploaded as the flat
@@ -144,7 +151,9 @@ impl ProbeSelection<'_> {
 #[derive(Clone, Copy, Debug)]
 pub enum Interpolation<'a> {
     /// Trilinear weights over the 8-probe cage of a regular grid (outside the grid, the
-    /// nearest boundary cage with clamped weights).
+    /// nearest boundary cage with clamped weights), each axis's factor at least 0.001 (DDGI's
+    /// floor: every probe of the cage keeps a little weight, for where the others are left
+    /// out or hidden).
     Grid(ProbeGrid),
     /// Barycentric weights of the Delaunay tetrahedron holding the point, found by a walk from
     /// a tetrahedron of the nearest probe (outside the hull: the last tetrahedron reached, its

@@ -1129,6 +1129,9 @@ impl PackedIrradiance {
                 index,
             });
         }
+        if !field.inside_geometry.is_empty() {
+            check_length("inside_geometry", probes, field.inside_geometry.len())?;
+        }
         let surfels_per_probe = field.surfels.len() / probes;
         if !field.surfels.is_empty() {
             if surfels_per_probe == 0 || surfels_per_probe * probes != field.surfels.len() {
@@ -1159,10 +1162,15 @@ impl PackedIrradiance {
         }
         let mut packed = PackedIrradiance {
             probe_count: probes as u32,
+            // w = 1 marks a probe left out of every blend (inside geometry).
             positions: field
                 .positions
                 .iter()
-                .map(|p| [p.x, p.y, p.z, 0.0])
+                .enumerate()
+                .map(|(i, p)| {
+                    let inside = field.inside_geometry.get(i).copied().unwrap_or(false);
+                    [p.x, p.y, p.z, f32::from(u8::from(inside))]
+                })
                 .collect(),
             irradiance_resolution: field.irradiance_resolution,
             moments_resolution: field.moments_resolution,

@@ -400,9 +400,11 @@ impl ShadingPoint {
 /// Each probe's weight is its interpolation weight (trilinear on a grid; barycentric in the
 /// Delaunay tetrahedron, or on the nearest convex-hull triangle outside the hull) times, with
 /// `visibility`, `max(chebyshev^visibility_exponent, min_weight)` and, with `backface`, DDGI's
-/// smooth backface term `((n·ω + 1)/2)² + 0.2` (ω the direction to the probe). Every factor is
-/// continuous in the position and the blend's weight sum never falls below
-/// `0.2 × min_weight`, so the renormalised blend is continuous too (no facets, no jumps).
+/// smooth backface term `((n·ω + 1)/2)² + 0.2` (ω the direction to the probe). Probes flagged
+/// as inside geometry ([`crate::IrradianceField::inside_geometry`]) are left out. Every factor
+/// is continuous in the position and, unless every probe of the blend is flagged, the weight
+/// sum stays bounded away from zero (`0.2 × min_weight` times the interpolation weights
+/// left), so the renormalised blend is continuous too (no facets, no jumps).
 ///
 /// Parsed from `key=value,...` text by [`std::str::FromStr`] (keys `visibility`,
 /// `normal-bias`, `exponent`, `min-weight`, `backface`; `on`/`off` for the switches), e.g.

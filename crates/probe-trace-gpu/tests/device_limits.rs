@@ -120,6 +120,7 @@ fn fields_over_the_device_limits_are_refused_naming_the_buffer() {
         moments_resolution: 14,
         moments: &moments,
         surfels: &[],
+        inside_geometry: &[],
     };
     let error = tracer
         .upload_irradiance(&low, &probe_trace_gpu::Interpolation::Grid(grid))

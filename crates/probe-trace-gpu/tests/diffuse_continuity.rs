@@ -101,6 +101,7 @@ fn blend_is_continuous(
         moments_resolution: MOMENTS_RESOLUTION,
         moments: &moments,
         surfels: &[],
+        inside_geometry: &[],
     };
     let options = DiffuseOptions {
         visibility,

@@ -11,9 +11,9 @@ use probe_index::{
 };
 use probe_scene::Scene;
 use probe_trace_gpu::{
-    CpuTracer, DiffuseOptions, FieldOptions, GpuContext, GpuTracer, Interpolation, LightField,
-    ProbeSelection, RayResult, RayStatus, ShadingPoint, SurfaceQuery, TraceError, TraceMethod,
-    TraceOptions, TraceOutput, TraceRay, TraceSummary, Tracer,
+    CpuTracer, DiffuseOptions, FieldOptions, GpuContext, GpuTracer, Interpolation, IrradianceField,
+    LightField, ProbeSelection, RayResult, RayStatus, ShadingPoint, SurfaceQuery, TraceError,
+    TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary, Tracer,
 };
 use support::{
     LowRes, albedo_shade, camera_rays, gpu_tracer, mini_capture, reflection_rays, to_trace_rays,
@@ -357,7 +357,8 @@ fn gpu_diffuse_matches_cpu() {
 }
 
 /// The GPU and the CPU twin shade `points` alike (999 in 1000 within 1e-3 relative) for each
-/// interpolation and a few option sets, with and without the surfels' near-field correction.
+/// interpolation and a few option sets, with and without the surfels' near-field correction,
+/// and with the first probe flagged as inside geometry (left out of the blend).
 fn compare_diffuse(
     gpu: &mut GpuTracer,
     cpu: &mut CpuTracer,
@@ -365,9 +366,18 @@ fn compare_diffuse(
     interpolations: &[Interpolation<'_>],
     points: &[ShadingPoint],
 ) {
-    for interpolation in interpolations {
-        let gpu_irradiance = gpu.upload_irradiance(&low.field(), interpolation).unwrap();
-        let cpu_irradiance = cpu.upload_irradiance(&low.field(), interpolation).unwrap();
+    let mut first_inside = vec![false; low.positions.len()];
+    first_inside[0] = true;
+    let flagged = IrradianceField {
+        inside_geometry: &first_inside,
+        ..low.field()
+    };
+    for (interpolation, field) in interpolations
+        .iter()
+        .flat_map(|i| [(i, low.field()), (i, flagged)])
+    {
+        let gpu_irradiance = gpu.upload_irradiance(&field, interpolation).unwrap();
+        let cpu_irradiance = cpu.upload_irradiance(&field, interpolation).unwrap();
         for (visibility, exponent, backface, parallax) in [
             (false, 3.0, false, false),
             (false, 3.0, true, false),

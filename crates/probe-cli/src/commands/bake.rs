@@ -217,7 +217,7 @@ impl Report for BakeSummary {
             .baked
             .stats()
             .iter()
-            .filter(|p| p.back_face_share > 0.25)
+            .filter(|p| p.inside_geometry())
             .count();
         let mut text = match &self.shard {
             Some(s) => format!(

@@ -10,6 +10,10 @@ use crate::packed::{
 };
 use crate::ray::{DiffuseResult, ShadingPoint};
 
+/// The least trilinear weight along each axis of a grid cage (DDGI's 0.001; `gpu/diffuse.wgsl`
+/// holds the same).
+pub(crate) const GRID_WEIGHT_FLOOR: f32 = 0.001;
+
 /// Bilinear sample of a padded octahedral map at `direction`, exactly as
 /// `probe_octa::OctaMap::sample` computes it (4 fetches).
 fn sample_bilinear<const K: usize>(
@@ -290,7 +294,13 @@ fn weights(ir: &PackedIrradiance, params: &DiffuseParams, x: Vec3) -> ([u32; 8],
             let bits = UVec3::new(slot & 1, (slot >> 1) & 1, slot >> 2);
             let c = base + bits;
             probes[slot as usize] = c.x + counts.x * (c.y + counts.y * c.z);
-            let pick = |bit: u32, v: f32| if bit == 1 { v } else { 1.0 - v };
+            // DDGI's floor per axis: every probe of the cage keeps a little weight, so a
+            // point whose nearest probes are inside geometry or hidden from it is lit by the
+            // others (outside the lattice the clamped weights are otherwise exactly zero).
+            let pick = |bit: u32, v: f32| {
+                let along = if bit == 1 { v } else { 1.0 - v };
+                along.max(GRID_WEIGHT_FLOOR)
+            };
             w[slot as usize] = pick(bits.x, f.x) * pick(bits.y, f.y) * pick(bits.z, f.z);
         }
     } else {
@@ -371,7 +381,8 @@ pub(super) fn shade(
     let mut sum = Vec3::ZERO;
     let mut weight_sum = 0.0f32;
     for (&probe, &interpolation) in probes.iter().zip(&w) {
-        if interpolation <= 0.0 {
+        // A probe inside geometry (flagged in `w`) is left out.
+        if interpolation <= 0.0 || ir.positions[probe as usize][3] != 0.0 {
             continue;
         }
         let mut weight = interpolation;
@@ -478,6 +489,7 @@ mod tests {
             moments_resolution: 1,
             moments: &moments,
             surfels: &[],
+            inside_geometry: &[],
         };
         let ir =
             PackedIrradiance::new(&field, &crate::input::Interpolation::Delaunay(tets)).unwrap();

@@ -15,6 +15,8 @@ const MIN_COVERAGE_SCALE: f32 = 0.5;
 const MAX_COVERAGE_SCALE: f32 = 4.0;
 const MAX_PARALLAX_GAIN: f32 = 16.0;
 const FRAC_1_PI: f32 = 0.31830987;
+// src/cpu/diffuse.rs GRID_WEIGHT_FLOOR.
+const GRID_WEIGHT_FLOOR: f32 = 0.001;
 const PI: f32 = 3.1415927;
 
 // src/packed.rs DiffuseParams (128 bytes).
@@ -404,7 +406,8 @@ fn interpolation_weights(x: vec3<f32>) -> Weights {
             let bits = vec3<u32>(slot & 1u, (slot >> 1u) & 1u, slot >> 2u);
             let c = base + bits;
             out.probes[slot] = c.x + counts.x * (c.y + counts.y * c.z);
-            let pick = select(vec3<f32>(1.0) - f, f, bits == vec3<u32>(1u));
+            // DDGI's floor per axis (cpu/diffuse.rs, `GRID_WEIGHT_FLOOR`).
+            let pick = max(select(vec3<f32>(1.0) - f, f, bits == vec3<u32>(1u)), vec3<f32>(GRID_WEIGHT_FLOOR));
             out.w[slot] = pick.x * pick.y * pick.z;
         }
         return out;
@@ -507,10 +510,11 @@ fn shade(point: ShadingPoint) -> vec4<f32> {
     var weight_sum = 0.0;
     for (var i = 0u; i < 8u; i++) {
         let interpolation = weights.w[i];
-        if (interpolation <= 0.0) {
+        let probe = weights.probes[i];
+        // A probe inside geometry (flagged in `w`) is left out.
+        if (interpolation <= 0.0 || positions[probe].w != 0.0) {
             continue;
         }
-        let probe = weights.probes[i];
         var weight = interpolation;
         let p = positions[probe].xyz;
         if (params.backface != 0u) {

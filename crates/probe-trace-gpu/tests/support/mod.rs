@@ -388,6 +388,7 @@ impl LowRes {
             moments_resolution: 14,
             moments: &self.moments,
             surfels: &self.surfels,
+            inside_geometry: &[],
         }
     }
 }
