@@ -11,6 +11,24 @@ use probe_trace_gpu::{
 };
 use support::{LowRes, direct_light_shade, mini_capture};
 
+/// An irradiance field at resolution 6 with moments at 14 (the moments constant in these
+/// tests, with visibility off), no surfels and no probe flagged.
+fn constant_moments_field<'a>(
+    positions: &'a [Vec3],
+    irradiance: &'a [Vec3],
+    moments: &'a [Vec2],
+) -> IrradianceField<'a> {
+    IrradianceField {
+        positions,
+        irradiance_resolution: 6,
+        irradiance,
+        moments_resolution: 14,
+        moments,
+        surfels: &[],
+        inside_geometry: &[],
+    }
+}
+
 /// Both interpolations reproduce a field that is linear in the probe position (irradiance maps
 /// constant per probe), anywhere inside the probe set.
 #[test]
@@ -35,15 +53,7 @@ fn interpolation_reproduces_linear_fields() {
         .flat_map(|&p| std::iter::repeat_n(f(p), per_probe))
         .collect();
     let moments = vec![Vec2::new(1.0, 1.0); positions.len() * 16 * 16];
-    let field = IrradianceField {
-        positions: &positions,
-        irradiance_resolution: 6,
-        irradiance: &irradiance,
-        moments_resolution: 14,
-        moments: &moments,
-        surfels: &[],
-        inside_geometry: &[],
-    };
+    let field = constant_moments_field(&positions, &irradiance, &moments);
     let tets = Tetrahedralization::build(&positions).unwrap();
     let mut tracer = CpuTracer::new();
     let mut state = 3u64;
@@ -106,13 +116,8 @@ fn probes_inside_geometry_are_left_out() {
     let mut inside = vec![false; positions.len()];
     inside[0] = true;
     let field = IrradianceField {
-        positions: &positions,
-        irradiance_resolution: 6,
-        irradiance: &irradiance,
-        moments_resolution: 14,
-        moments: &moments,
-        surfels: &[],
         inside_geometry: &inside,
+        ..constant_moments_field(&positions, &irradiance, &moments)
     };
     let options = DiffuseOptions {
         visibility: false,
