@@ -126,18 +126,14 @@ fn probes_inside_geometry_are_left_out() {
     };
     // Beyond the flagged corner (clamped trilinear weights put everything on probe 0), and
     // inside the cage.
-    let beyond: Vec<ShadingPoint> = (0..27)
-        .map(|i| {
-            let f = |k: u32| -0.5 + 0.2 * k as f32;
-            ShadingPoint::new(Vec3::new(f(i % 3), f((i / 3) % 3), f(i / 9)), Vec3::Y)
-        })
-        .collect();
-    let within: Vec<ShadingPoint> = (0..27)
-        .map(|i| {
-            let f = |k: u32| 0.1 + 0.4 * k as f32;
-            ShadingPoint::new(Vec3::new(f(i % 3), f((i / 3) % 3), f(i / 9)), Vec3::Y)
-        })
-        .collect();
+    // 3×3×3 floor-facing points from `start` along each axis, `step` apart.
+    let lattice = |start: f32, step: f32| -> Vec<ShadingPoint> {
+        let f = |k: u32| start + step * k as f32;
+        (0..27)
+            .map(|i| ShadingPoint::new(Vec3::new(f(i % 3), f((i / 3) % 3), f(i / 9)), Vec3::Y))
+            .collect()
+    };
+    let (beyond, within) = (lattice(-0.5, 0.2), lattice(0.1, 0.4));
     let mut tracer = CpuTracer::new();
     let shade = |tracer: &mut CpuTracer, field: &IrradianceField<'_>, points: &[ShadingPoint]| {
         let uploaded = tracer

@@ -233,7 +233,7 @@ impl Report for BakeSummary {
         text += &format!(
             "baked {} probes of {} at {}² × {:.1} spp ({}), {} bounce(s) in {:.2} s ({:.2} M primary rays/s), saved to {} in {:.2} s\n\
              noise (tone-mapped variance per texel, from the replicates): {}\n\
-             probes seeing mostly back faces (share > 0.25, likely inside geometry): {}\n",
+             probes seeing mostly back faces (share > {}, likely inside geometry): {}\n",
             self.baked.probe_count(),
             self.scene,
             s.resolution,
@@ -255,6 +255,7 @@ impl Report for BakeSummary {
                 "not estimated (1 sample per texel)".to_owned(),
                 |v| format!("{v:.2e}")
             ),
+            probe_capture::ProbeStats::INSIDE_GEOMETRY_BACK_FACE_SHARE,
             inside,
         );
         if let Some(previews) = &self.previews {
