@@ -9,7 +9,10 @@
 //!
 //! Defaults: `builtin:cornell grid:3x3x3 64 256x256 default docs/glossy cornell 0.1 0.3 0.6`.
 //! The environment may set `GLOSSY_BLEND` (the filtered rays' `TraceOptions::glossy_blend`,
-//! default: the tracer's), `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1) and
+//! default: the tracer's), `STOCHASTIC_SEED` (the 16 stochastic rays' seed, default 1),
+//! `CONE_MAX_PROBES` and `CONE_NEAREST` (the cone rays' `TraceOptions::max_probes` and
+//! `nearest_candidates`, default: the tracer's), `STOCHASTIC_MAX_PROBES` (the 16 stochastic
+//! rays' `max_probes`, default: the tracer's),
 //! `FILTERED_SPLIT=K` (a further row: the lobe cut into `K` sectors, one narrower cone each,
 //! `probe_eval::glossy::sub_lobe_rays`) and `BAKE_NOISE=1` (a second bake of the same probes
 //! with the next seed: every probe image is traced through both bakes, and each row gains the
@@ -34,7 +37,8 @@
 //! against the BVH's closest hit (`probe_eval::metrics::classify_pixels`: correct hit, right
 //! surface with wrong radiance, wrong hit, UNKNOWN, ...), against the reference and against the
 //! probes' 64-ray image, and each image's error is split by the angle the camera sees the
-//! surface at (bins of `n·v`). Prints a Markdown table and writes `OUT/NAME.png`: per roughness
+//! surface at (bins of `n·v`). Each trace prints its `TraceSummary` (UNKNOWN share, probes
+//! and texel fetches per ray). Prints a Markdown table and writes `OUT/NAME.png`: per roughness
 //! a row filtered 1 rpp by one probe | filtered 1 rpp blended | stochastic 16 rpp | reference, at
 //! the reference's exposure.
 
@@ -54,7 +58,7 @@ use probe_eval::pipeline::{
 use probe_index::ProbeGrid;
 use probe_place::ProbeSet;
 use probe_scene::{Ray, Scene};
-use probe_trace_gpu::{AnyField, FieldOptions, RayResult, TraceOptions, TraceRay};
+use probe_trace_gpu::{AnyField, FieldOptions, RayResult, TraceOptions, TraceRay, TraceSummary};
 
 const REFERENCE_RPP: u32 = 64;
 const STOCHASTIC_RPP: u32 = 16;
@@ -88,6 +92,15 @@ fn timed_image(
     }
     times.sort_by(f64::total_cmp);
     let results = last.unwrap_or_default();
+    let summary = TraceSummary::of(&results);
+    println!(
+        "  (trace of {} rays: {:.1} % UNKNOWN, {:.2} probes and {:.1} texel fetches per ray, {:.1} ms)",
+        summary.rays,
+        100.0 * summary.unknown as f64 / summary.rays.max(1) as f64,
+        summary.probes_per_ray,
+        summary.fetches_per_ray,
+        times[times.len() / 2],
+    );
     let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
     Ok((
         accumulate_rays(size.0, size.1, rays, &radiance)?,
@@ -222,6 +235,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
     let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
     let bake_noise = number("BAKE_NOISE", 0)? != 0;
+    let cone_max_probes = u32::try_from(number(
+        "CONE_MAX_PROBES",
+        u64::from(TraceOptions::default().max_probes),
+    )?)?;
+    let stochastic_max_probes = u32::try_from(number(
+        "STOCHASTIC_MAX_PROBES",
+        u64::from(TraceOptions::default().max_probes),
+    )?)?;
+    let cone_nearest = u32::try_from(number(
+        "CONE_NEAREST",
+        u64::from(TraceOptions::default().nearest_candidates),
+    )?)?;
 
     let scene = Scene::open(&scene_spec)?;
     let probes = ProbeSet::from_spec(&probes_spec, &scene)?;
@@ -309,6 +334,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
 
         let plain = TraceOptions::default();
+        let stochastic_options = TraceOptions {
+            max_probes: stochastic_max_probes,
+            ..plain
+        };
         let (converged, converged_ms, _) =
             timed_image(&mut device, field, &view.rays, &plain, size, 1)?;
         let start = Instant::now();
@@ -319,14 +348,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             stochastic_seed,
         )?;
         let stochastic_rays_ms = start.elapsed().as_secs_f64() * 1e3;
-        let (stochastic, stochastic_ms, _) =
-            timed_image(&mut device, field, &stochastic_rays, &plain, size, 3)?;
+        let (stochastic, stochastic_ms, _) = timed_image(
+            &mut device,
+            field,
+            &stochastic_rays,
+            &stochastic_options,
+            size,
+            3,
+        )?;
         let start = Instant::now();
         let filtered_rays = filtered_reflection_rays(&gbuffer, roughness)?;
         let filtered_rays_ms = start.elapsed().as_secs_f64() * 1e3;
         let cone = TraceOptions {
             glossy_roughness: roughness,
             glossy_blend,
+            max_probes: cone_max_probes,
+            nearest_candidates: cone_nearest,
             ..TraceOptions::default()
         };
         let (filtered, filtered_ms, filtered_results) =
@@ -359,7 +396,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 "stochastic 16 rpp",
                 &stochastic,
                 &stochastic_rays,
-                &plain,
+                &stochastic_options,
                 stochastic_ms,
                 Some(stochastic_rays_ms),
             ),
