@@ -92,19 +92,19 @@ fn timed_image(
     }
     times.sort_by(f64::total_cmp);
     let results = last.unwrap_or_default();
+    let median = times[times.len() / 2];
     let summary = TraceSummary::of(&results);
     println!(
-        "  (trace of {} rays: {:.1} % UNKNOWN, {:.2} probes and {:.1} texel fetches per ray, {:.1} ms)",
+        "  (trace of {} rays: {:.1} % UNKNOWN, {:.2} probes and {:.1} texel fetches per ray, {median:.1} ms)",
         summary.rays,
-        100.0 * summary.unknown as f64 / summary.rays.max(1) as f64,
+        100.0 * summary.unknown_rate(),
         summary.probes_per_ray,
         summary.fetches_per_ray,
-        times[times.len() / 2],
     );
     let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
     Ok((
         accumulate_rays(size.0, size.1, rays, &radiance)?,
-        times[times.len() / 2],
+        median,
         results,
     ))
 }
@@ -228,25 +228,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Err(_) => Ok(default),
         }
     };
-    let glossy_blend = u32::try_from(number(
-        "GLOSSY_BLEND",
-        u64::from(TraceOptions::default().glossy_blend),
-    )?)?;
+    // A whole number that must also fit a u32.
+    let count = |name: &str, default: u32| -> Result<u32, Box<dyn std::error::Error>> {
+        Ok(u32::try_from(number(name, u64::from(default))?)?)
+    };
+    let defaults = TraceOptions::default();
+    let glossy_blend = count("GLOSSY_BLEND", defaults.glossy_blend)?;
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
-    let sectors = u32::try_from(number("FILTERED_SPLIT", 1)?)?;
+    let sectors = count("FILTERED_SPLIT", 1)?;
     let bake_noise = number("BAKE_NOISE", 0)? != 0;
-    let cone_max_probes = u32::try_from(number(
-        "CONE_MAX_PROBES",
-        u64::from(TraceOptions::default().max_probes),
-    )?)?;
-    let stochastic_max_probes = u32::try_from(number(
-        "STOCHASTIC_MAX_PROBES",
-        u64::from(TraceOptions::default().max_probes),
-    )?)?;
-    let cone_nearest = u32::try_from(number(
-        "CONE_NEAREST",
-        u64::from(TraceOptions::default().nearest_candidates),
-    )?)?;
+    let cone_max_probes = count("CONE_MAX_PROBES", defaults.max_probes)?;
+    let stochastic_max_probes = count("STOCHASTIC_MAX_PROBES", defaults.max_probes)?;
+    let cone_nearest = count("CONE_NEAREST", defaults.nearest_candidates)?;
 
     let scene = Scene::open(&scene_spec)?;
     let probes = ProbeSet::from_spec(&probes_spec, &scene)?;

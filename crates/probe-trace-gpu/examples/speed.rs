@@ -288,9 +288,9 @@ fn main() {
         println!(
             "| {} | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | {:.3} ms | {} | {:.3} s |",
             method.name(),
-            100.0 * s.hits as f64 / s.rays as f64,
+            100.0 * s.hit_rate(),
             100.0 * s.misses as f64 / s.rays as f64,
-            100.0 * s.unknown as f64 / s.rays as f64,
+            100.0 * s.unknown_rate(),
             s.fetches_per_ray,
             s.probes_per_ray,
             wall.as_secs_f64() * 1e3,
@@ -331,9 +331,9 @@ fn main() {
     );
     println!(
         "| hybrid: BVH + look-up | {:.1} % | {:.1} % | {:.1} % | {:.2} | {:.2} | BVH + {:.3} ms | BVH + {} | BVH + {:.3} s |",
-        100.0 * s.hits as f64 / s.rays as f64,
+        100.0 * s.hit_rate(),
         100.0 * s.misses as f64 / s.rays as f64,
-        100.0 * s.unknown as f64 / s.rays as f64,
+        100.0 * s.unknown_rate(),
         s.fetches_per_ray,
         s.probes_per_ray,
         look_up_wall.as_secs_f64() * 1e3,

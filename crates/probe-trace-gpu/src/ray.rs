@@ -363,6 +363,14 @@ impl TraceSummary {
             self.hits as f64 / self.rays as f64
         }
     }
+    /// Share of rays left Unknown, in `[0, 1]` (0 for no rays).
+    pub fn unknown_rate(&self) -> f64 {
+        if self.rays == 0 {
+            0.0
+        } else {
+            self.unknown as f64 / self.rays as f64
+        }
+    }
 }
 
 /// A point to shade diffusely (32 bytes). WGSL mirror:
@@ -505,4 +513,43 @@ pub struct DiffuseResult {
     /// Sum of the probes' weights before normalisation (interpolation × visibility): near 0
     /// where every probe was judged occluded.
     pub weight: f32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The summary's shares count each status over all rays, and are 0 for no rays.
+    #[test]
+    fn summary_rates_count_statuses() {
+        let result = |status| RayResult {
+            status,
+            t: 0.0,
+            position: Vec3::ZERO,
+            normal: Vec3::ZERO,
+            radiance: Vec3::ZERO,
+            probe: None,
+            probes_tried: 1,
+            texel_fetches: 2,
+        };
+        let results = [
+            result(RayStatus::Hit),
+            result(RayStatus::Miss),
+            result(RayStatus::Unknown),
+            result(RayStatus::Unknown),
+        ];
+        let s = TraceSummary::of(&results);
+        assert_eq!(s.hit_rate(), 0.25);
+        assert_eq!(s.answered_rate(), 0.5);
+        assert_eq!(s.unknown_rate(), 0.5);
+        let empty = TraceSummary::of(&[]);
+        assert_eq!(
+            (
+                empty.hit_rate(),
+                empty.answered_rate(),
+                empty.unknown_rate()
+            ),
+            (0.0, 0.0, 0.0)
+        );
+    }
 }

@@ -260,10 +260,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 "miss_rate",
                 json!(summary.misses as f64 / summary.rays.max(1) as f64),
             ),
-            (
-                "unknown_rate",
-                json!(summary.unknown as f64 / summary.rays.max(1) as f64),
-            ),
+            ("unknown_rate", json!(summary.unknown_rate())),
             ("fetches_per_ray", json!(summary.fetches_per_ray)),
             ("probes_per_ray", json!(summary.probes_per_ray)),
             ("direct_ms", json!(t.direct_ms)),
@@ -399,10 +396,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             "miss_rate".into(),
             json!(summary.misses as f64 / summary.rays.max(1) as f64),
         );
-        map.insert(
-            "unknown_rate".into(),
-            json!(summary.unknown as f64 / summary.rays.max(1) as f64),
-        );
+        map.insert("unknown_rate".into(), json!(summary.unknown_rate()));
         map.insert("fetches_per_ray".into(), json!(summary.fetches_per_ray));
         map.insert("probes_per_ray".into(), json!(summary.probes_per_ray));
         map.insert(
