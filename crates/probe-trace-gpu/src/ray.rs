@@ -454,7 +454,9 @@ pub struct DiffuseOptions {
     /// "Near-field diffuse"): with the bake's default 8² surfels the final image's error falls
     /// 2.0–2.9× on the Cornell box and 1.08–1.27× on Sponza, the leak rooms' diffuse error
     /// 1.2–1.6×, and FLIP falls on every scene measured; the Breakfast room's MSE rises 13–30 %
-    /// (furniture hides from the walls surfaces that a probe in the room's middle sees).
+    /// (on the wall beside its window, where the uncorrected probes already err; a test of
+    /// each surfel's visibility from the point does not change it: BENCHMARKS.md, "Where the
+    /// near-field diffuse raises the Breakfast room's error").
     pub parallax: bool,
 }
 
