@@ -234,7 +234,8 @@
 //! [`pipeline::place`] runs one method (grid, relocated grid, SDF, medial axis, seed 002, or
 //! the minimal cover), an optional optimiser and an optional budget or coverage target, and
 //! measures the result on one visibility atlas, as `probes place` and probe-eval's sweep do;
-//! [`pipeline::fill_to_budget`] spends a budget left over after a cover.
+//! [`pipeline::fill_to_budget`] spends a budget left over after a cover on the probes that
+//! read best ([`atlas::read_score`]).
 //!
 //! # Features
 //!

@@ -339,3 +339,38 @@ fn an_error_driven_set_held_by_each_view_reports_its_worst_view() {
     assert_eq!(plain.report.worst_view_coverage, None);
     assert!(!plain.report.to_json().contains("worst_view_coverage"));
 }
+
+/// The budget goes to the candidates that raise the texels' best read score most (the
+/// tracer's measure: squarely and from close by): no candidate alone reads better than the
+/// first pick, and every pick raises the total.
+#[test]
+fn fill_to_budget_picks_the_best_reader_first() {
+    use probe_place::atlas::{READ_REACH, read_score};
+    let scene = Scene::builtin("cornell").unwrap();
+    let free = BackfaceVote::new(&scene);
+    let pool = free_space_grid(&free, 0.1);
+    let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 800), &pool).unwrap();
+    let reach = READ_REACH * atlas.distance_scale();
+    let total = |probes: &[Vec3]| -> f64 {
+        let mut best = vec![0.0f32; atlas.samples().len()];
+        for views in atlas.views_of_probes(probes) {
+            for v in views {
+                let slot = &mut best[v.sample as usize];
+                *slot = slot.max(read_score(&v, reach));
+            }
+        }
+        best.iter().map(|&s| f64::from(s)).sum()
+    };
+    let filled = fill_to_budget(&atlas, &pool, Vec::new(), 3);
+    assert_eq!(filled.len(), 3);
+    // Greedy: each pick is the best single addition, so no other candidate beats the first.
+    let first = total(&filled[..1]);
+    for candidate in pool.iter().step_by(7) {
+        assert!(
+            total(std::slice::from_ref(candidate)) <= first + 1e-3,
+            "{candidate} reads better than the first pick {}",
+            filled[0]
+        );
+    }
+    assert!(total(&filled) >= total(&filled[..2]) && total(&filled[..2]) >= first);
+}

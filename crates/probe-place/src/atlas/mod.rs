@@ -146,6 +146,34 @@ pub struct ProbeView {
     pub distance: f32,
 }
 
+/// The share of the atlas's distance scale ([`Atlas::distance_scale`]) within which
+/// [`read_score`] does not fall with distance: 0.4, chosen by measurement (BENCHMARKS.md,
+/// "Budgets spent on probes that read well").
+pub const READ_REACH: f32 = 0.4;
+
+/// How well a probe reads a texel's radiance for the light-field tracer: the view cosine,
+/// times `reach / distance` beyond `reach` (metres). The tracer reads a hit from the probe
+/// that sees it most squarely for its distance (cosine over distance: a texel's footprint on
+/// the surface grows with distance over cosine), so a probe that sees a surface edge-on or
+/// from far away gives a blurred read. Within `reach` only the angle counts, so a probe
+/// pressed against a surface gains nothing.
+///
+/// ```
+/// use probe_place::atlas::{ProbeView, read_score};
+///
+/// let view = |distance| ProbeView { sample: 0, view_cosine: 0.5, distance };
+/// assert_eq!(read_score(&view(1.0), 2.0), 0.5); // within reach: the cosine
+/// assert_eq!(read_score(&view(4.0), 2.0), 0.25); // twice as far: half
+/// ```
+#[inline]
+pub fn read_score(view: &ProbeView, reach: f32) -> f32 {
+    if view.distance <= reach {
+        view.view_cosine
+    } else {
+        view.view_cosine * reach / view.distance
+    }
+}
+
 /// How the per-probe scores of one texel combine into the texel's fitness `π_ij`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TexelAggregation {
@@ -693,6 +721,30 @@ fn r2_point(offset: Vec2, i: usize) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The read score never rises with distance, is the cosine within reach, scales with
+        /// the cosine and lies in [0, cosine].
+        #[test]
+        fn read_score_falls_with_distance(
+            cosine in 0.0f32..=1.0,
+            near in 0.0f32..100.0,
+            extra in 0.0f32..100.0,
+            reach in 0.0f32..50.0,
+        ) {
+            let view = |distance| ProbeView { sample: 0, view_cosine: cosine, distance };
+            let (a, b) = (read_score(&view(near), reach), read_score(&view(near + extra), reach));
+            prop_assert!(b <= a, "{b} > {a}");
+            prop_assert!((0.0..=cosine).contains(&a));
+            if near <= reach {
+                prop_assert_eq!(a, cosine);
+            } else {
+                let half = ProbeView { view_cosine: 0.5 * cosine, ..view(near) };
+                prop_assert!((read_score(&half, reach) - 0.5 * a).abs() <= 1e-6 * a.max(1.0));
+            }
+        }
+    }
 
     #[test]
     fn r2_points_stay_in_the_triangle_and_spread() {
