@@ -130,12 +130,18 @@ fn bad_parameters_are_refused_by_name() {
     }
 }
 
+/// A free-space grid of candidates 0.1 apart and an atlas of about 800 texels reachable from it.
+fn pool_and_atlas(scene: &Scene) -> (Vec<Vec3>, Atlas<'_>) {
+    let free = BackfaceVote::new(scene);
+    let pool = free_space_grid(&free, 0.1);
+    let atlas = Atlas::build(scene, &AtlasParams::for_texel_count(scene, 800), &pool).unwrap();
+    (pool, atlas)
+}
+
 #[test]
 fn fill_to_budget_adds_only_probes_that_add_something() {
     let scene = Scene::builtin("cornell").unwrap();
-    let free = BackfaceVote::new(&scene);
-    let pool = free_space_grid(&free, 0.1);
-    let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 800), &pool).unwrap();
+    let (pool, atlas) = pool_and_atlas(&scene);
     let start = vec![pool[0]];
     let filled = fill_to_budget(&atlas, &pool, start.clone(), 4);
     assert_eq!(filled.len(), 4);
@@ -347,9 +353,7 @@ fn an_error_driven_set_held_by_each_view_reports_its_worst_view() {
 fn fill_to_budget_picks_the_best_reader_first() {
     use probe_place::atlas::{READ_REACH, read_score};
     let scene = Scene::builtin("cornell").unwrap();
-    let free = BackfaceVote::new(&scene);
-    let pool = free_space_grid(&free, 0.1);
-    let atlas = Atlas::build(&scene, &AtlasParams::for_texel_count(&scene, 800), &pool).unwrap();
+    let (pool, atlas) = pool_and_atlas(&scene);
     let reach = READ_REACH * atlas.distance_scale();
     let total = |probes: &[Vec3]| -> f64 {
         let mut best = vec![0.0f32; atlas.samples().len()];
