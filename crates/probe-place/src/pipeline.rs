@@ -276,13 +276,16 @@ pub fn fill_to_budget(
     }
     let reach = crate::atlas::READ_REACH * atlas.distance_scale();
     let score = |view: &crate::atlas::ProbeView| crate::atlas::read_score(view, reach);
+    // Each texel's best score so far, raised by a new probe's views.
+    let raise = |best: &mut [f32], views: &[crate::atlas::ProbeView]| {
+        for v in views {
+            let slot = &mut best[v.sample as usize];
+            *slot = slot.max(score(v));
+        }
+    };
     let mut best = vec![0.0f32; atlas.samples().len()];
     for views in atlas.views_of_probes(&chosen) {
-        for v in views {
-            let score = score(&v);
-            let slot = &mut best[v.sample as usize];
-            *slot = slot.max(score);
-        }
+        raise(&mut best, &views);
     }
     let views = atlas.views_of_probes(candidates);
     let mut used: Vec<bool> = candidates.iter().map(|c| chosen.contains(c)).collect();
@@ -323,11 +326,7 @@ pub fn fill_to_budget(
             break;
         }
         used[pick.0] = true;
-        for v in &views[pick.0] {
-            let score = score(v);
-            let slot = &mut best[v.sample as usize];
-            *slot = slot.max(score);
-        }
+        raise(&mut best, &views[pick.0]);
         chosen.push(candidates[pick.0]);
     }
     chosen
