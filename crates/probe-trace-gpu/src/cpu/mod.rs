@@ -493,6 +493,9 @@ fn filtered_radiance(
         // Sky reads blend the clear sky texels alone where there are any: a sky texel at a
         // silhouette holds part of the surface's radiance ([`clear_sky_texel`]).
         let (mut clear_sum, mut clear_weight) = (Vec3::ZERO, 0.0f32);
+        // A surface point's texels, for the step-edge read.
+        let mut shown = [(0.0f32, Vec3::ZERO); 4];
+        let mut count = 0;
         for (texel, w) in texels {
             if w <= 0.0 {
                 continue;
@@ -512,9 +515,12 @@ fn filtered_radiance(
             };
             if shows {
                 *fetches += 1;
-                let read = w * Vec3::from(radiance(field, probe, texel));
+                let value = Vec3::from(radiance(field, probe, texel));
+                let read = w * value;
                 sum += read;
                 weight += w;
+                shown[count] = (w, value);
+                count += 1;
                 if clear {
                     clear_sum += read;
                     clear_weight += w;
@@ -524,12 +530,64 @@ fn filtered_radiance(
         if clear_weight > 0.0 {
             return (clear_sum / clear_weight).to_array();
         }
+        if !sky && let Some(value) = step_edge(&shown[..count]) {
+            return value.to_array();
+        }
         if weight > 0.0 {
             return (sum / weight).to_array();
         }
     }
     *fetches += 1;
     radiance(field, probe, cell)
+}
+
+/// The smallest ratio of the brightest to the darkest texel of a bilinear read that
+/// [`step_edge`] takes for a step between two radiances.
+const STEP_EDGE_RATIO: f32 = 8.0;
+
+/// The smallest tone-mapped (`x / (1 + x)`) difference between the brightest and the darkest
+/// texel that [`step_edge`] takes for a step.
+const STEP_EDGE_CONTRAST: f32 = 0.25;
+
+/// A sharp read of a step edge between the texels `shown` (bilinear weight, radiance) that
+/// show a surface point: `None` unless their brightest and darkest texels (by the mean of the
+/// channels) differ by [`STEP_EDGE_RATIO`] and, tone-mapped, by [`STEP_EDGE_CONTRAST`] (an
+/// emitter's border, a sharp shadow's). Each texel is the mean over its solid angle, so
+/// across a step between a bright radiance `H` and a dark one `L` a texel holds
+/// `α·H + (1 − α)·L` with `α` the share it sees of the bright side. The bilinear blend of
+/// the `α`s crosses ½ at the step where the brightest and darkest texels are wholly on
+/// their sides (up to a texel from it where they are not: a partly lit texel looks like a
+/// dimmer light), while the blend of the radiances smears `H` a whole texel into the dark
+/// side (a ceiling beside a light read at a tenth of its radiance is still bright once
+/// tone-mapped). So the read is the brightest texel's radiance where the blended `α`,
+/// taking the brightest and darkest texels for `H` and `L`, is at least ½, else the
+/// darkest's (`gpu/trace.wgsl`'s `step_edge` step for step).
+fn step_edge(shown: &[(f32, Vec3)]) -> Option<Vec3> {
+    let level = |v: Vec3| (v.x + v.y + v.z) / 3.0;
+    let (mut bright, mut dark) = (*shown.first()?, *shown.first()?);
+    for &texel in &shown[1..] {
+        if level(texel.1) > level(bright.1) {
+            bright = texel;
+        }
+        if level(texel.1) < level(dark.1) {
+            dark = texel;
+        }
+    }
+    let (h, l) = (level(bright.1), level(dark.1));
+    let tone = |x: f32| x / (1.0 + x);
+    if h <= STEP_EDGE_RATIO * l || tone(h) - tone(l) < STEP_EDGE_CONTRAST {
+        return None;
+    }
+    let (mut alpha, mut weight) = (0.0f32, 0.0f32);
+    for &(w, value) in shown {
+        alpha += w * (level(value) - l) / (h - l);
+        weight += w;
+    }
+    Some(if alpha >= 0.5 * weight {
+        bright.1
+    } else {
+        dark.1
+    })
 }
 
 /// Bilinear radiance of prefiltered glossy level `level` (>= 1) of `probe` in unit direction
@@ -1593,6 +1651,62 @@ mod tests {
         }
     }
 
+    /// Texels box-filtered across a straight step (a light of radiance 17 beside a ceiling
+    /// of 0.3) read at 1,001 points along a line across it. Where the step falls on a texel
+    /// border the step-edge read is exact; elsewhere two texels cannot tell a partly lit
+    /// texel from a dimmer light, so it may switch up to a texel from the step, but its mean
+    /// tone-mapped squared error stays below the bilinear blend's, which smears the light a
+    /// texel into the ceiling at every step position (0.3 texel before a step at 0.8 the
+    /// blend is 0.7 × 0.3 + 0.3 × 12.0, tone-mapped 0.79 against the ceiling's 0.23).
+    #[test]
+    fn step_edge_is_sharp_where_the_blend_smears() {
+        let (light, ceiling) = (Vec3::splat(17.0), Vec3::splat(0.3));
+        let tone = |v: Vec3| v.x / (1.0 + v.x);
+        // Texel i covers [i − ½, i + ½]; the light covers x ≥ `step`.
+        for step in [0.5f32, 0.6, 0.8, 1.0, 1.2, 1.3, 1.5] {
+            let texel = |i: f32| {
+                let alpha = ((i + 0.5) - step).clamp(0.0, 1.0);
+                light * alpha + ceiling * (1.0 - alpha)
+            };
+            let (mut read_error, mut blend_error) = (0.0f32, 0.0f32);
+            for k in 0..=1000 {
+                let x = -0.5 + 2.5 * k as f32 / 1000.0;
+                let i = x.floor();
+                let f = x - i;
+                let shown = [(1.0 - f, texel(i)), (f, texel(i + 1.0))];
+                let truth = if x >= step { light } else { ceiling };
+                let blend = (1.0 - f) * shown[0].1 + f * shown[1].1;
+                // Where both texels agree there is no step and the blend is exact.
+                let read = step_edge(&shown).unwrap_or(blend);
+                read_error += (tone(read) - tone(truth)).powi(2) / 1001.0;
+                blend_error += (tone(blend) - tone(truth)).powi(2) / 1001.0;
+            }
+            assert!(
+                blend_error > 0.05,
+                "step {step}: the blend smears ({blend_error})"
+            );
+            assert!(
+                read_error < blend_error,
+                "step {step}: {read_error} ≥ {blend_error}"
+            );
+            if (step - 0.5).fract() == 0.0 {
+                assert!(read_error < 1e-4, "step {step} on a border: {read_error}");
+            }
+        }
+    }
+
+    /// No step, no change: a smooth gradient (ratio under 8), dark noise (tone-mapped
+    /// difference under 0.25) and a single texel keep the bilinear read.
+    #[test]
+    fn step_edge_leaves_gradients_and_dark_noise() {
+        let gradient = [(0.5, Vec3::splat(1.0)), (0.5, Vec3::splat(4.0))];
+        assert_eq!(step_edge(&gradient), None);
+        let dark = [(0.5, Vec3::splat(0.001)), (0.5, Vec3::splat(0.05))];
+        assert_eq!(step_edge(&dark), None);
+        assert_eq!(step_edge(&[(1.0, Vec3::splat(17.0))]), None);
+        assert_eq!(step_edge(&[]), None);
+    }
+
     proptest::proptest! {
         // A fixed seed: the same cases on every run.
         #![proptest_config(proptest::prelude::ProptestConfig {
@@ -1633,6 +1747,35 @@ mod tests {
             proptest::prop_assert!(beyond.cmplt(lo).any() || beyond.cmpgt(hi).any());
             // Leaving: from just outside the face it crossed, moving on, nothing is ahead.
             proptest::prop_assert!(bounds_exit(&params, beyond, d) <= 0.0);
+        }
+
+        /// The step-edge read is one of the texels it was given, the brightest or the
+        /// darkest, and only where they differ by the ratio and the tone-mapped contrast.
+        #[test]
+        fn step_edge_reads_an_extreme_texel(
+            texels in proptest::collection::vec(
+                (0.01f32..1.0, proptest::array::uniform3(0.0f32..40.0)), 0..=4),
+        ) {
+            let shown: Vec<(f32, Vec3)> =
+                texels.iter().map(|&(w, v)| (w, Vec3::from(v))).collect();
+            let level = |v: Vec3| (v.x + v.y + v.z) / 3.0;
+            let read = step_edge(&shown);
+            if let Some(value) = read {
+                let levels = shown.iter().map(|t| level(t.1));
+                let h = levels.clone().fold(f32::MIN, f32::max);
+                let l = levels.fold(f32::MAX, f32::min);
+                proptest::prop_assert!(level(value) == h || level(value) == l);
+                proptest::prop_assert!(h > STEP_EDGE_RATIO * l);
+                proptest::prop_assert!(h / (1.0 + h) - l / (1.0 + l) >= STEP_EDGE_CONTRAST);
+                proptest::prop_assert!(shown.iter().any(|t| t.1 == value));
+            } else if shown.len() >= 2 {
+                let levels = shown.iter().map(|t| level(t.1));
+                let h = levels.clone().fold(f32::MIN, f32::max);
+                let l = levels.fold(f32::MAX, f32::min);
+                proptest::prop_assert!(
+                    h <= STEP_EDGE_RATIO * l || h / (1.0 + h) - l / (1.0 + l) < STEP_EDGE_CONTRAST
+                );
+            }
         }
     }
 }

@@ -1059,6 +1059,10 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
         // Sky reads blend the clear sky texels alone where there are any.
         var clear_sum = vec3<f32>(0.0);
         var clear_weight = 0.0;
+        // A surface point's texels, for the step-edge read.
+        var shown_weight = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
+        var shown_value = array<vec3<f32>, 4>(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0));
+        var count = 0u;
         for (var k = 0u; k < 4u; k++) {
             let w = bilinear_weight(k, frac);
             if (w <= 0.0) {
@@ -1078,9 +1082,13 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
             }
             if (shows) {
                 fetches += 1u;
-                let read = w * radiance_at(probe, texel);
+                let value = radiance_at(probe, texel);
+                let read = w * value;
                 sum += read;
                 weight += w;
+                shown_weight[count] = w;
+                shown_value[count] = value;
+                count += 1u;
                 if (clear) {
                     clear_sum += read;
                     clear_weight += w;
@@ -1090,12 +1098,47 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
         if (clear_weight > 0.0) {
             return clear_sum / clear_weight;
         }
+        if (!sky && count > 0u) {
+            // The step-edge read (src/cpu/mod.rs step_edge).
+            var bright = 0u;
+            var dark = 0u;
+            for (var i = 1u; i < count; i++) {
+                if (channel_mean(shown_value[i]) > channel_mean(shown_value[bright])) {
+                    bright = i;
+                }
+                if (channel_mean(shown_value[i]) < channel_mean(shown_value[dark])) {
+                    dark = i;
+                }
+            }
+            let h = channel_mean(shown_value[bright]);
+            let l = channel_mean(shown_value[dark]);
+            if (h > STEP_EDGE_RATIO * l && h / (1.0 + h) - l / (1.0 + l) >= STEP_EDGE_CONTRAST) {
+                var alpha = 0.0;
+                var total = 0.0;
+                for (var i = 0u; i < count; i++) {
+                    alpha += shown_weight[i] * (channel_mean(shown_value[i]) - l) / (h - l);
+                    total += shown_weight[i];
+                }
+                if (alpha >= 0.5 * total) {
+                    return shown_value[bright];
+                }
+                return shown_value[dark];
+            }
+        }
         if (weight > 0.0) {
             return sum / weight;
         }
     }
     fetches += 1u;
     return radiance_at(probe, cell);
+}
+
+// src/cpu/mod.rs STEP_EDGE_RATIO and STEP_EDGE_CONTRAST.
+const STEP_EDGE_RATIO: f32 = 8.0;
+const STEP_EDGE_CONTRAST: f32 = 0.25;
+
+fn channel_mean(v: vec3<f32>) -> f32 {
+    return (v.x + v.y + v.z) / 3.0;
 }
 
 // Bilinear radiance of prefiltered glossy level `level` (>= 1) of `probe` in unit direction d,
