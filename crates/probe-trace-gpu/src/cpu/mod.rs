@@ -530,8 +530,24 @@ fn filtered_radiance(
         if clear_weight > 0.0 {
             return (clear_sum / clear_weight).to_array();
         }
-        if !sky && let Some(value) = step_edge(&shown[..count]) {
-            return value.to_array();
+        if !sky && is_step(&shown[..count]) {
+            // The texels around the four that show the point give the step's two sides
+            // where the four are only partly lit (one fetch each, two where it shows it).
+            let mut ring = [Vec3::ZERO; 12];
+            let mut found = 0;
+            let base = bilinear_base(field.resolution, v);
+            for (dx, dy) in STEP_EDGE_RING {
+                let texel = wrap_texel(base.x + dx, base.y + dy, field.resolution);
+                *fetches += 1;
+                if texel_shows(field, probe, texel, v) {
+                    *fetches += 1;
+                    ring[found] = Vec3::from(radiance(field, probe, texel));
+                    found += 1;
+                }
+            }
+            if let Some(value) = step_edge(&shown[..count], &ring[..found]) {
+                return value.to_array();
+            }
         }
         if weight > 0.0 {
             return (sum / weight).to_array();
@@ -549,45 +565,82 @@ const STEP_EDGE_RATIO: f32 = 8.0;
 /// texel that [`step_edge`] takes for a step.
 const STEP_EDGE_CONTRAST: f32 = 0.25;
 
-/// A sharp read of a step edge between the texels `shown` (bilinear weight, radiance) that
-/// show a surface point: `None` unless their brightest and darkest texels (by the mean of the
-/// channels) differ by [`STEP_EDGE_RATIO`] and, tone-mapped, by [`STEP_EDGE_CONTRAST`] (an
-/// emitter's border, a sharp shadow's). Each texel is the mean over its solid angle, so
-/// across a step between a bright radiance `H` and a dark one `L` a texel holds
-/// `α·H + (1 − α)·L` with `α` the share it sees of the bright side. The bilinear blend of
-/// the `α`s crosses ½ at the step where the brightest and darkest texels are wholly on
-/// their sides (up to a texel from it where they are not: a partly lit texel looks like a
-/// dimmer light), while the blend of the radiances smears `H` a whole texel into the dark
-/// side (a ceiling beside a light read at a tenth of its radiance is still bright once
-/// tone-mapped). So the read is the brightest texel's radiance where the blended `α`,
-/// taking the brightest and darkest texels for `H` and `L`, is at least ½, else the
-/// darkest's (`gpu/trace.wgsl`'s `step_edge` step for step).
-fn step_edge(shown: &[(f32, Vec3)]) -> Option<Vec3> {
-    let level = |v: Vec3| (v.x + v.y + v.z) / 3.0;
-    let (mut bright, mut dark) = (*shown.first()?, *shown.first()?);
-    for &texel in &shown[1..] {
-        if level(texel.1) > level(bright.1) {
-            bright = texel;
-        }
-        if level(texel.1) < level(dark.1) {
-            dark = texel;
-        }
-    }
-    let (h, l) = (level(bright.1), level(dark.1));
+/// The texels around a bilinear read's four (offsets from the first of them, the lower
+/// left): the 4×4 block less its middle 2×2.
+const STEP_EDGE_RING: [(i32, i32); 12] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (2, -1),
+    (-1, 0),
+    (2, 0),
+    (-1, 1),
+    (2, 1),
+    (-1, 2),
+    (0, 2),
+    (1, 2),
+    (2, 2),
+];
+
+/// The first (lower left) of the four texels [`bilinear_texels`] reads for `v` (not
+/// wrapped); `v` is not at the probe.
+fn bilinear_base(n: u32, v: Vec3) -> glam::IVec2 {
+    let o = probe_octa::encode(v / v.length()).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
+    let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
+    f.floor().as_ivec2()
+}
+
+/// The mean of a radiance's channels: what [`step_edge`] compares.
+fn channel_mean(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+/// Whether the texels `shown` (bilinear weight, radiance) that show a surface point form a
+/// step: their brightest and darkest (by the mean of the channels) differ by
+/// [`STEP_EDGE_RATIO`] and, tone-mapped, by [`STEP_EDGE_CONTRAST`] (an emitter's border, a
+/// sharp shadow's).
+fn is_step(shown: &[(f32, Vec3)]) -> bool {
+    let levels = shown.iter().map(|t| channel_mean(t.1));
+    let h = levels.clone().fold(f32::MIN, f32::max);
+    let l = levels.fold(f32::MAX, f32::min);
     let tone = |x: f32| x / (1.0 + x);
-    if h <= STEP_EDGE_RATIO * l || tone(h) - tone(l) < STEP_EDGE_CONTRAST {
+    shown.len() >= 2 && h > STEP_EDGE_RATIO * l && tone(h) - tone(l) >= STEP_EDGE_CONTRAST
+}
+
+/// A sharp read of a step edge between the texels `shown` (bilinear weight, radiance) that
+/// show a surface point, given the `ring` of texels around them that show it too: `None`
+/// unless `shown` [`is_step`]. Each texel is the mean over its solid angle, so across a
+/// step between a bright radiance `H` and a dark one `L` a texel holds `α·H + (1 − α)·L`
+/// with `α` the share it sees of the bright side. `H` and `L` are the brightest and darkest
+/// texels of `shown` and `ring` together (the ring holds a wholly lit and a wholly dark
+/// texel where the four straddle the step partly lit). The bilinear blend of the four
+/// texels' `α`s (clamped to `[0, 1]`) crosses ½ within a tenth of a texel of a straight
+/// step, while the blend of the radiances smears `H` a whole texel into the dark side (a
+/// ceiling beside a light read at a tenth of its radiance is still bright once tone-mapped).
+/// So the read is `H` where the blended `α` is at least ½, else `L`. Where no texel of the
+/// ring is wholly on a side (a light a texel or two across), a partly lit texel stands for
+/// that side and the switch may fall up to a texel from the step (`gpu/trace.wgsl`'s
+/// `step_edge` step for step).
+fn step_edge(shown: &[(f32, Vec3)], ring: &[Vec3]) -> Option<Vec3> {
+    if !is_step(shown) {
         return None;
     }
+    let (mut bright, mut dark) = (shown[0].1, shown[0].1);
+    for value in shown.iter().map(|t| t.1).chain(ring.iter().copied()) {
+        if channel_mean(value) > channel_mean(bright) {
+            bright = value;
+        }
+        if channel_mean(value) < channel_mean(dark) {
+            dark = value;
+        }
+    }
+    let (h, l) = (channel_mean(bright), channel_mean(dark));
     let (mut alpha, mut weight) = (0.0f32, 0.0f32);
     for &(w, value) in shown {
-        alpha += w * (level(value) - l) / (h - l);
+        alpha += w * ((channel_mean(value) - l) / (h - l)).clamp(0.0, 1.0);
         weight += w;
     }
-    Some(if alpha >= 0.5 * weight {
-        bright.1
-    } else {
-        dark.1
-    })
+    Some(if alpha >= 0.5 * weight { bright } else { dark })
 }
 
 /// Bilinear radiance of prefiltered glossy level `level` (>= 1) of `probe` in unit direction
@@ -1651,13 +1704,15 @@ mod tests {
         }
     }
 
-    /// Texels box-filtered across a straight step (a light of radiance 17 beside a ceiling
-    /// of 0.3) read at 1,001 points along a line across it. Where the step falls on a texel
-    /// border the step-edge read is exact; elsewhere two texels cannot tell a partly lit
-    /// texel from a dimmer light, so it may switch up to a texel from the step, but its mean
-    /// tone-mapped squared error stays below the bilinear blend's, which smears the light a
-    /// texel into the ceiling at every step position (0.3 texel before a step at 0.8 the
-    /// blend is 0.7 × 0.3 + 0.3 × 12.0, tone-mapped 0.79 against the ceiling's 0.23).
+    /// A step between a light (17) and a ceiling (0.3) across a line of texels, read at
+    /// 1,001 points along it for steps at 0.5 to 1.5 texels. The bilinear blend smears the
+    /// light a texel into the ceiling at every step position (0.3 texel before a step at 0.8
+    /// the blend is 0.7 × 0.3 + 0.3 × 12.0, tone-mapped 0.79 against the ceiling's 0.23).
+    /// With the ring (the texel on each side of the two read), every step-edge read farther
+    /// than 0.1 texel from the step is exact and the mean error is under half the blend's
+    /// (what is left: reads of one partly lit texel and its wholly lit neighbour, no step by
+    /// the ratio, which keep the blend); without the ring (the two texels alone, both partly
+    /// lit), the read may switch up to a texel off but its mean error stays below the blend's.
     #[test]
     fn step_edge_is_sharp_where_the_blend_smears() {
         let (light, ceiling) = (Vec3::splat(17.0), Vec3::splat(0.3));
@@ -1668,17 +1723,25 @@ mod tests {
                 let alpha = ((i + 0.5) - step).clamp(0.0, 1.0);
                 light * alpha + ceiling * (1.0 - alpha)
             };
-            let (mut read_error, mut blend_error) = (0.0f32, 0.0f32);
+            let (mut read_error, mut alone_error, mut blend_error) = (0.0f32, 0.0f32, 0.0f32);
             for k in 0..=1000 {
                 let x = -0.5 + 2.5 * k as f32 / 1000.0;
                 let i = x.floor();
                 let f = x - i;
-                let shown = [(1.0 - f, texel(i)), (f, texel(i + 1.0))];
+                // As the tracer reads: texels of no weight are left out.
+                let pair = [(1.0 - f, texel(i)), (f, texel(i + 1.0))];
+                let shown: Vec<(f32, Vec3)> = pair.into_iter().filter(|t| t.0 > 0.0).collect();
+                let ring = [texel(i - 1.0), texel(i + 2.0)];
                 let truth = if x >= step { light } else { ceiling };
-                let blend = (1.0 - f) * shown[0].1 + f * shown[1].1;
-                // Where both texels agree there is no step and the blend is exact.
-                let read = step_edge(&shown).unwrap_or(blend);
+                let blend = (1.0 - f) * pair[0].1 + f * pair[1].1;
+                // Where the texels read are no step, the blend is kept.
+                let read = step_edge(&shown, &ring).unwrap_or(blend);
+                if is_step(&shown) && (x - step).abs() > 0.1 {
+                    assert_eq!(read, truth, "step {step}, read at {x}");
+                }
+                let alone = step_edge(&shown, &[]).unwrap_or(blend);
                 read_error += (tone(read) - tone(truth)).powi(2) / 1001.0;
+                alone_error += (tone(alone) - tone(truth)).powi(2) / 1001.0;
                 blend_error += (tone(blend) - tone(truth)).powi(2) / 1001.0;
             }
             assert!(
@@ -1686,11 +1749,15 @@ mod tests {
                 "step {step}: the blend smears ({blend_error})"
             );
             assert!(
-                read_error < blend_error,
-                "step {step}: {read_error} ≥ {blend_error}"
+                alone_error < blend_error,
+                "step {step}: {alone_error} ≥ {blend_error}"
+            );
+            assert!(
+                read_error <= alone_error && read_error < 0.5 * blend_error,
+                "step {step}: {read_error} against {alone_error} without the ring and the blend's {blend_error}"
             );
             if (step - 0.5).fract() == 0.0 {
-                assert!(read_error < 1e-4, "step {step} on a border: {read_error}");
+                assert!(alone_error < 1e-4, "step {step} on a border: {alone_error}");
             }
         }
     }
@@ -1700,11 +1767,13 @@ mod tests {
     #[test]
     fn step_edge_leaves_gradients_and_dark_noise() {
         let gradient = [(0.5, Vec3::splat(1.0)), (0.5, Vec3::splat(4.0))];
-        assert_eq!(step_edge(&gradient), None);
+        // A bright ring does not make a step of texels that are none.
+        let ring = [Vec3::splat(17.0), Vec3::ZERO];
+        assert_eq!(step_edge(&gradient, &ring), None);
         let dark = [(0.5, Vec3::splat(0.001)), (0.5, Vec3::splat(0.05))];
-        assert_eq!(step_edge(&dark), None);
-        assert_eq!(step_edge(&[(1.0, Vec3::splat(17.0))]), None);
-        assert_eq!(step_edge(&[]), None);
+        assert_eq!(step_edge(&dark, &ring), None);
+        assert_eq!(step_edge(&[(1.0, Vec3::splat(17.0))], &ring), None);
+        assert_eq!(step_edge(&[], &ring), None);
     }
 
     proptest::proptest! {
@@ -1750,31 +1819,32 @@ mod tests {
         }
 
         /// The step-edge read is one of the texels it was given, the brightest or the
-        /// darkest, and only where they differ by the ratio and the tone-mapped contrast.
+        /// darkest of the four and the ring, and only where the four differ by the ratio
+        /// and the tone-mapped contrast.
         #[test]
         fn step_edge_reads_an_extreme_texel(
             texels in proptest::collection::vec(
                 (0.01f32..1.0, proptest::array::uniform3(0.0f32..40.0)), 0..=4),
+            ring in proptest::collection::vec(proptest::array::uniform3(0.0f32..40.0), 0..=12),
         ) {
             let shown: Vec<(f32, Vec3)> =
                 texels.iter().map(|&(w, v)| (w, Vec3::from(v))).collect();
-            let level = |v: Vec3| (v.x + v.y + v.z) / 3.0;
-            let read = step_edge(&shown);
+            let ring: Vec<Vec3> = ring.into_iter().map(Vec3::from).collect();
+            let levels = shown.iter().map(|t| channel_mean(t.1));
+            let h = levels.clone().fold(f32::MIN, f32::max);
+            let l = levels.fold(f32::MAX, f32::min);
+            let step = shown.len() >= 2
+                && h > STEP_EDGE_RATIO * l
+                && h / (1.0 + h) - l / (1.0 + l) >= STEP_EDGE_CONTRAST;
+            let read = step_edge(&shown, &ring);
+            proptest::prop_assert_eq!(read.is_some(), step);
             if let Some(value) = read {
-                let levels = shown.iter().map(|t| level(t.1));
-                let h = levels.clone().fold(f32::MIN, f32::max);
-                let l = levels.fold(f32::MAX, f32::min);
-                proptest::prop_assert!(level(value) == h || level(value) == l);
-                proptest::prop_assert!(h > STEP_EDGE_RATIO * l);
-                proptest::prop_assert!(h / (1.0 + h) - l / (1.0 + l) >= STEP_EDGE_CONTRAST);
-                proptest::prop_assert!(shown.iter().any(|t| t.1 == value));
-            } else if shown.len() >= 2 {
-                let levels = shown.iter().map(|t| level(t.1));
-                let h = levels.clone().fold(f32::MIN, f32::max);
-                let l = levels.fold(f32::MAX, f32::min);
-                proptest::prop_assert!(
-                    h <= STEP_EDGE_RATIO * l || h / (1.0 + h) - l / (1.0 + l) < STEP_EDGE_CONTRAST
-                );
+                let all: Vec<Vec3> = shown.iter().map(|t| t.1).chain(ring.iter().copied()).collect();
+                let top = all.iter().map(|&v| channel_mean(v)).fold(f32::MIN, f32::max);
+                let bottom = all.iter().map(|&v| channel_mean(v)).fold(f32::MAX, f32::min);
+                let level = channel_mean(value);
+                proptest::prop_assert!(level == top || level == bottom);
+                proptest::prop_assert!(all.contains(&value));
             }
         }
     }

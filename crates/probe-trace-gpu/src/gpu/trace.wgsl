@@ -1098,31 +1098,54 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
         if (clear_weight > 0.0) {
             return clear_sum / clear_weight;
         }
-        if (!sky && count > 0u) {
-            // The step-edge read (src/cpu/mod.rs step_edge).
-            var bright = 0u;
-            var dark = 0u;
+        if (!sky && count >= 2u) {
+            // The step-edge read (src/cpu/mod.rs is_step and step_edge).
+            var bright = shown_value[0];
+            var dark = shown_value[0];
             for (var i = 1u; i < count; i++) {
-                if (channel_mean(shown_value[i]) > channel_mean(shown_value[bright])) {
-                    bright = i;
+                if (channel_mean(shown_value[i]) > channel_mean(bright)) {
+                    bright = shown_value[i];
                 }
-                if (channel_mean(shown_value[i]) < channel_mean(shown_value[dark])) {
-                    dark = i;
+                if (channel_mean(shown_value[i]) < channel_mean(dark)) {
+                    dark = shown_value[i];
                 }
             }
-            let h = channel_mean(shown_value[bright]);
-            let l = channel_mean(shown_value[dark]);
-            if (h > STEP_EDGE_RATIO * l && h / (1.0 + h) - l / (1.0 + l) >= STEP_EDGE_CONTRAST) {
+            let h4 = channel_mean(bright);
+            let l4 = channel_mean(dark);
+            if (h4 > STEP_EDGE_RATIO * l4 && h4 / (1.0 + h4) - l4 / (1.0 + l4) >= STEP_EDGE_CONTRAST) {
+                // The ring of texels around the four that show the point gives the step's
+                // two sides where the four are only partly lit.
+                for (var r = 0u; r < 16u; r++) {
+                    let dx = i32(r & 3u) - 1;
+                    let dy = i32(r >> 2u) - 1;
+                    if ((dx == 0 || dx == 1) && (dy == 0 || dy == 1)) {
+                        continue;
+                    }
+                    let texel = wrap_texel(i32(base.x) + dx, i32(base.y) + dy, n);
+                    fetches += 1u;
+                    if (texel_shows(probe, texel, v)) {
+                        fetches += 1u;
+                        let value = radiance_at(probe, texel);
+                        if (channel_mean(value) > channel_mean(bright)) {
+                            bright = value;
+                        }
+                        if (channel_mean(value) < channel_mean(dark)) {
+                            dark = value;
+                        }
+                    }
+                }
+                let h = channel_mean(bright);
+                let l = channel_mean(dark);
                 var alpha = 0.0;
                 var total = 0.0;
                 for (var i = 0u; i < count; i++) {
-                    alpha += shown_weight[i] * (channel_mean(shown_value[i]) - l) / (h - l);
+                    alpha += shown_weight[i] * clamp((channel_mean(shown_value[i]) - l) / (h - l), 0.0, 1.0);
                     total += shown_weight[i];
                 }
                 if (alpha >= 0.5 * total) {
-                    return shown_value[bright];
+                    return bright;
                 }
-                return shown_value[dark];
+                return dark;
             }
         }
         if (weight > 0.0) {
