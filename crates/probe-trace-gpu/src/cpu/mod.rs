@@ -376,23 +376,35 @@ fn wrap_texel(ix: i32, iy: i32, n: u32) -> UVec2 {
     UVec2::new(x as u32, y as u32)
 }
 
-/// The four texels around the direction of `v` (relative to a probe of an `n×n` map) with
-/// their bilinear weights, through the map's wrap; `None` for `v` at the probe.
-fn bilinear_texels(n: u32, v: Vec3) -> Option<[(UVec2, f32); 4]> {
+/// The direction of `v` (relative to a probe of an `n×n` map) in texel coordinates, texel
+/// centres at whole numbers (`gpu/trace.wgsl`'s `bilinear_coordinate`); `None` for `v` at
+/// the probe.
+fn bilinear_coordinate(n: u32, v: Vec3) -> Option<glam::Vec2> {
     let r = v.length();
     if r <= 0.0 {
         return None;
     }
     let o = probe_octa::encode(v / r).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
-    let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
+    Some((o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5))
+}
+
+/// The four texels around the texel coordinate `f` ([`bilinear_coordinate`]) with their
+/// bilinear weights, through the map's wrap; the first is the lower left, at `f.floor()`.
+fn texels_around(n: u32, f: glam::Vec2) -> [(UVec2, f32); 4] {
     let base = f.floor();
     let frac = f - base;
-    Some(std::array::from_fn(|k| {
+    std::array::from_fn(|k| {
         let (a, b) = ((k & 1) as i32, (k >> 1) as i32);
         let w =
             if a == 1 { frac.x } else { 1.0 - frac.x } * if b == 1 { frac.y } else { 1.0 - frac.y };
         (wrap_texel(base.x as i32 + a, base.y as i32 + b, n), w)
-    }))
+    })
+}
+
+/// The four texels around the direction of `v` (relative to a probe of an `n×n` map) with
+/// their bilinear weights, through the map's wrap; `None` for `v` at the probe.
+fn bilinear_texels(n: u32, v: Vec3) -> Option<[(UVec2, f32); 4]> {
+    bilinear_coordinate(n, v).map(|f| texels_around(n, f))
 }
 
 /// The surface one texel of a probe stores, as the point tests read it
@@ -488,7 +500,8 @@ fn filtered_radiance(
     cell: UVec2,
     fetches: &mut u32,
 ) -> [f32; 3] {
-    if let Some(texels) = bilinear_texels(field.resolution, v) {
+    if let Some(f) = bilinear_coordinate(field.resolution, v) {
+        let texels = texels_around(field.resolution, f);
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
         // Sky reads blend the clear sky texels alone where there are any: a sky texel at a
         // silhouette holds part of the surface's radiance ([`clear_sky_texel`]).
@@ -535,7 +548,7 @@ fn filtered_radiance(
             // where the four are only partly lit (one fetch each, two where it shows it).
             let mut ring = [Vec3::ZERO; 12];
             let mut found = 0;
-            let base = bilinear_base(field.resolution, v);
+            let base = f.floor().as_ivec2();
             for (dx, dy) in STEP_EDGE_RING {
                 let texel = wrap_texel(base.x + dx, base.y + dy, field.resolution);
                 *fetches += 1;
@@ -566,7 +579,7 @@ const STEP_EDGE_RATIO: f32 = 8.0;
 const STEP_EDGE_CONTRAST: f32 = 0.25;
 
 /// The texels around a bilinear read's four (offsets from the first of them, the lower
-/// left): the 4×4 block less its middle 2×2.
+/// left, [`texels_around`]): the 4×4 block less its middle 2×2.
 const STEP_EDGE_RING: [(i32, i32); 12] = [
     (-1, -1),
     (0, -1),
@@ -581,14 +594,6 @@ const STEP_EDGE_RING: [(i32, i32); 12] = [
     (1, 2),
     (2, 2),
 ];
-
-/// The first (lower left) of the four texels [`bilinear_texels`] reads for `v` (not
-/// wrapped); `v` is not at the probe.
-fn bilinear_base(n: u32, v: Vec3) -> glam::IVec2 {
-    let o = probe_octa::encode(v / v.length()).clamp(glam::Vec2::NEG_ONE, glam::Vec2::ONE);
-    let f = (o + glam::Vec2::ONE) * (0.5 * n as f32) - glam::Vec2::splat(0.5);
-    f.floor().as_ivec2()
-}
 
 /// The mean of a radiance's channels: what [`step_edge`] compares.
 fn channel_mean(v: Vec3) -> f32 {
