@@ -74,6 +74,16 @@ pub struct BakeSettings {
     /// measurement against the shading cost (BENCHMARKS.md, "Near-field diffuse"; 16 lowers
     /// the Cornell box's diffuse error a further 1.8× at 2.1–2.5× the shading time).
     pub surfel_resolution: u32,
+    /// Edge-preserving smoothing of the radiance maps after sampling, as strong as `k` = this
+    /// (0: off). Each texel becomes a weighted mean of the texels within two of it that see
+    /// the same surface (normals within 25°, on its plane within two texel footprints; sky
+    /// with sky) with weight `exp(-Δ² / (k² (σ²_i + σ²_j)))`, where `Δ` is the difference of
+    /// their tone-mapped radiance and `σ²` each texel's estimated noise: differences the
+    /// noise explains are averaged away, edges (a light against the ceiling, a shadow's
+    /// border) are kept. The derived maps (pyramid, irradiance, surfels) are made from the
+    /// smoothed radiance; [`ProbeSampling::noise`] stays the noise before it. Finite, 0 to 8.
+    /// Default 0 (measured in BENCHMARKS.md, "Radiance smoothing").
+    pub denoise: f32,
 }
 
 /// How many radiance samples each texel of a bake takes.
@@ -187,6 +197,7 @@ impl Default for BakeSettings {
             irradiance_resolution: probe_octa::DDGI_IRRADIANCE_RESOLUTION,
             filter_source_resolution: 128,
             surfel_resolution: 8,
+            denoise: 0.0,
         }
     }
 }
@@ -368,6 +379,13 @@ impl BakeSettings {
                 "surfel_resolution",
                 surfels,
                 "must be 0 (none) or a power of two up to 1024",
+            ));
+        }
+        if !(self.denoise.is_finite() && (0.0..=8.0).contains(&self.denoise)) {
+            return Err(invalid(
+                "denoise",
+                self.denoise,
+                "must be finite, from 0 (off) to 8",
             ));
         }
         if !(self.moments_lobe_power.is_finite() && self.moments_lobe_power >= 0.0) {
@@ -1074,7 +1092,15 @@ pub(crate) fn bake_probes(
         radiance,
         reflected,
         sampling,
-    } = radiance_pass(&shader, positions, first_probe, layout, settings, &tick);
+    } = radiance_pass(
+        &shader,
+        positions,
+        first_probe,
+        layout,
+        settings,
+        &geometry,
+        &tick,
+    );
 
     let moments_max_distance = settings
         .moments_max_distance
@@ -1333,6 +1359,94 @@ fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f
     counts_for(above)
 }
 
+/// Tone map of the noise estimates (`x / (1 + x)` per channel).
+fn tone(v: Vec3) -> Vec3 {
+    let v = v.max(Vec3::ZERO);
+    v / (Vec3::ONE + v)
+}
+
+/// Edge-preserving smoothing of one probe's radiance ([`BakeSettings::denoise`]): `map`
+/// (padded) gets, in its interior, each texel's weighted mean of the texels within two of it
+/// (through the octahedral wrap, [`probe_octa::fold`]) that see the same surface as it, with
+/// a Gaussian falloff over the offset and a weight that vanishes where the tone-mapped
+/// difference exceeds what the two texels' noise explains (`k` = `strength`). Reads the
+/// texels' unsmoothed means, so the order of texels does not matter.
+fn denoise_probe(
+    layout: OctaLayout,
+    map: &mut [Vec3],
+    texels: &[TexelSums],
+    distances: &[f32],
+    normals: &[Vec3],
+    strength: f32,
+) {
+    let n = layout.resolution() as i32;
+    let nu = n as usize;
+    // Per-texel noise: the per-sample variance averaged over the 3×3 neighbourhood, over the
+    // texel's samples (the adaptive pass's estimate).
+    let per_sample: Vec<f32> = texels
+        .iter()
+        .map(|t| t.noise().unwrap_or(0.0) * t.samples as f32)
+        .collect();
+    let mut variance = vec![0.0f32; nu * nu];
+    for iy in 0..n {
+        for ix in 0..n {
+            let mut sum = 0.0;
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (x, y) = probe_octa::fold(ix + dx, iy + dy, n);
+                    sum += per_sample[y as usize * nu + x as usize];
+                }
+            }
+            let t = &texels[iy as usize * nu + ix as usize];
+            variance[iy as usize * nu + ix as usize] = sum / 9.0 / t.samples.max(1) as f32;
+        }
+    }
+    let footprint = probe_octa::texel_angle(layout.resolution());
+    let means: Vec<Vec3> = texels.iter().map(TexelSums::mean).collect();
+    let tones: Vec<Vec3> = means.iter().map(|&m| tone(m)).collect();
+    let padded = |x: i32, y: i32| layout.padded_index(x as u32 + 1, y as u32 + 1);
+    let k2 = strength * strength;
+    for iy in 0..n {
+        for ix in 0..n {
+            let i = iy as usize * nu + ix as usize;
+            let pi = padded(ix, iy);
+            let (di, ni) = (distances[pi], normals[pi]);
+            let sky_i = di >= 0.5 * MISS_DISTANCE;
+            let qi = layout.texel_direction(ix as u32, iy as u32) * di;
+            let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+            for dy in -2..=2i32 {
+                for dx in -2..=2i32 {
+                    let (x, y) = probe_octa::fold(ix + dx, iy + dy, n);
+                    let j = y as usize * nu + x as usize;
+                    let pj = padded(x, y);
+                    let dj = distances[pj];
+                    if (dj >= 0.5 * MISS_DISTANCE) != sky_i {
+                        continue;
+                    }
+                    if !sky_i {
+                        if normals[pj].dot(ni) < 0.9 {
+                            continue;
+                        }
+                        let qj = layout.texel_direction(x as u32, y as u32) * dj;
+                        let reach = 2.0 * footprint * di * (dx.abs().max(dy.abs()) as f32);
+                        if ni.dot(qj - qi).abs() > reach.max(1e-6) {
+                            continue;
+                        }
+                    }
+                    let delta = tones[j] - tones[i];
+                    let d2 = delta.length_squared() / 3.0;
+                    let noise = (variance[i] + variance[j]).max(1e-12);
+                    let w =
+                        (-d2 / (k2 * noise)).exp() * (-((dx * dx + dy * dy) as f32) / 4.5).exp();
+                    sum += means[j] * w;
+                    weight += w;
+                }
+            }
+            map[pi] = if weight > 0.0 { sum / weight } else { means[i] };
+        }
+    }
+}
+
 /// What the radiance pass gives: the radiance maps, the same maps without the emission of
 /// the surfaces the texels see (the light those surfaces reflect, the source of the
 /// indirect-only irradiance), and how each probe was sampled.
@@ -1350,6 +1464,7 @@ fn radiance_pass(
     first_probe: usize,
     layout: OctaLayout,
     settings: &BakeSettings,
+    geometry: &ProbeGeometry,
     row_done: &(dyn Fn() + Sync),
 ) -> RadianceMaps {
     let n = layout.resolution();
@@ -1401,10 +1516,23 @@ fn radiance_pass(
                     row_done();
                 }
             }
+            if settings.denoise > 0.0 {
+                denoise_probe(
+                    layout,
+                    map,
+                    &texels,
+                    &geometry.distances[local * len..(local + 1) * len],
+                    &geometry.normals[local * len..(local + 1) * len],
+                    settings.denoise,
+                );
+                let _ = layout.pad(map);
+            }
             let mut samples = 0u64;
             let mut noise = Some(0.0f64);
             for (t, texel) in texels.iter().enumerate() {
-                map[(t / nu + 1) * side + t % nu + 1] = texel.mean();
+                if settings.denoise == 0.0 {
+                    map[(t / nu + 1) * side + t % nu + 1] = texel.mean();
+                }
                 reflected_map[(t / nu + 1) * side + t % nu + 1] = texel.indirect_mean();
                 samples += u64::from(texel.samples);
                 noise = noise.zip(texel.noise()).map(|(a, b)| a + f64::from(b));

@@ -313,6 +313,9 @@ struct ManifestSettings {
     /// Absent in bakes saved before surfels existed: none.
     #[serde(default)]
     surfel_resolution: u32,
+    /// Absent in bakes saved before radiance smoothing existed: off.
+    #[serde(default)]
+    denoise: f32,
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -722,6 +725,7 @@ impl ProbeBake {
                 irradiance_resolution: s.irradiance_resolution,
                 filter_source_resolution: s.filter_source_resolution,
                 surfel_resolution: s.surfel_resolution,
+                denoise: s.denoise,
             },
             environment: ManifestEnvironment::from(&self.environment),
             moments_max_distance: self.moments_max_distance,
@@ -1180,6 +1184,7 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
         irradiance_resolution: s.irradiance_resolution,
         filter_source_resolution: s.filter_source_resolution,
         surfel_resolution: s.surfel_resolution,
+        denoise: s.denoise,
     };
     settings.validate().map_err(|e| e.to_string())?;
     if m.resolution != s.resolution || m.resolution > MAX_BAKE_RESOLUTION {

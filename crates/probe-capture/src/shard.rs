@@ -436,8 +436,9 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
         irradiance_resolution,
         filter_source_resolution,
         surfel_resolution,
+        denoise,
     } = a;
-    let fields: [(&str, String, String); 12] = [
+    let fields: [(&str, String, String); 13] = [
         (
             "resolution",
             format!("{resolution}"),
@@ -489,6 +490,11 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
             "surfel_resolution",
             format!("{surfel_resolution}"),
             format!("{}", b.surfel_resolution),
+        ),
+        (
+            "denoise",
+            format!("{:?}", denoise.to_bits()),
+            format!("{:?}", b.denoise.to_bits()),
         ),
     ];
     fields

@@ -65,6 +65,8 @@ pub struct DemoOptions {
     pub region: Option<probe_place::region::Region>,
     /// Samples per pixel of each part of the path-traced final image.
     pub final_reference_samples: u32,
+    /// The bakes' radiance smoothing ([`probe_capture::BakeSettings::denoise`]; 0: off).
+    pub bake_denoise: f32,
 }
 
 impl DemoOptions {
@@ -82,6 +84,7 @@ impl DemoOptions {
             reference_max_samples: 2048,
             region: None,
             final_reference_samples: 512,
+            bake_denoise: 0.0,
         }
     }
 }
@@ -395,6 +398,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
         width: options.image_size,
         height: options.image_size,
         shading_samples: 16,
+        bake_denoise: options.bake_denoise,
         ..ViewSettings::default()
     };
     log("rendering the path-traced reference (first two passes)");

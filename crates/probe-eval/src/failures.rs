@@ -829,6 +829,7 @@ fn view_settings(options: &FailureOptions, roughness: f32) -> ViewSettings {
         shading_samples: 4,
         bounces: 1,
         seed: options.seed,
+        bake_denoise: 0.0,
     }
 }
 

@@ -52,6 +52,8 @@ pub struct ViewSettings {
     pub bounces: u32,
     /// Seed of every random choice.
     pub seed: u64,
+    /// The bakes' radiance smoothing ([`probe_capture::BakeSettings::denoise`]; 0: off).
+    pub bake_denoise: f32,
 }
 
 impl Default for ViewSettings {
@@ -64,6 +66,7 @@ impl Default for ViewSettings {
             shading_samples: 8,
             bounces: 1,
             seed: 7,
+            bake_denoise: 0.0,
         }
     }
 }
@@ -302,6 +305,7 @@ pub fn bake_for_view_seeded(
         bounces: view.settings.bounces,
         seed,
         environment: Some(view.environment),
+        denoise: view.settings.bake_denoise,
         ..BakeSettings::default()
     };
     let start = Instant::now();

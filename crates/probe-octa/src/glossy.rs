@@ -43,8 +43,15 @@ pub fn texel_angle(resolution: u32) -> f32 {
 /// Interior texel `(ix, iy)` of an `n×n` map for `ix, iy ∈ (−n, 2n)`, through the octahedral
 /// wrap (crossing the edge `u = ±1` at `v` re-enters at `−v`; the border rule of
 /// [`OctaLayout::pad`] extended past one texel).
+///
+/// ```
+/// // One texel left of the first column is the first column, mirrored top to bottom.
+/// assert_eq!(probe_octa::fold(-1, 0, 8), (0, 7));
+/// // Past a corner both ways: the opposite corner.
+/// assert_eq!(probe_octa::fold(-1, -1, 8), (7, 7));
+/// ```
 #[inline]
-fn fold(ix: i32, iy: i32, n: i32) -> (i32, i32) {
+pub fn fold(ix: i32, iy: i32, n: i32) -> (i32, i32) {
     let (mut x, mut y) = (ix, iy);
     if x < 0 {
         (x, y) = (-1 - x, n - 1 - y);

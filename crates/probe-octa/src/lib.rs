@@ -106,8 +106,8 @@ pub use filter::{
     distance_moments, irradiance_map, lobe_mean,
 };
 pub use glossy::{
-    GGX_TAIL, downsample_box, ggx_alpha_for_angle, ggx_filter, ggx_lobe_angle, glossy_level_alpha,
-    glossy_pyramid, texel_angle,
+    GGX_TAIL, downsample_box, fold, ggx_alpha_for_angle, ggx_filter, ggx_lobe_angle,
+    glossy_level_alpha, glossy_pyramid, texel_angle,
 };
 pub use layout::{MAX_RESOLUTION, OctaLayout, ResolutionError};
 pub use map::{MapError, OctaMap, Texel};

@@ -25,6 +25,11 @@ pub struct Args {
     /// union of boxes).
     #[arg(long, value_name = "BOX")]
     pub region: Vec<String>,
+    /// Edge-preserving smoothing of the bakes' radiance, as strong as K (0: off; 0 to 8):
+    /// differences a texel's noise explains are averaged with its neighbours on the same
+    /// surface, edges are kept.
+    #[arg(long, value_name = "K", default_value_t = 0.0)]
+    pub denoise: f32,
 }
 
 /// Runs the demo, logging each stage to stderr.
@@ -34,6 +39,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         resolution: args.res,
         image_size: args.size,
         region: crate::commands::place::parse_region(&args.region)?,
+        bake_denoise: args.denoise,
         ..DemoOptions::new(&args.out)
     };
     let report = run_demo(&options, &|line| eprintln!("demo: {line}"))?;
