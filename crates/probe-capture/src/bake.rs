@@ -1292,6 +1292,14 @@ pub struct ProbeSampling {
     pub capped_share: f32,
 }
 
+/// Each texel's variance per sample (its noise times its samples; 0 with fewer than two).
+fn per_sample_variances(texels: &[TexelSums]) -> Vec<f32> {
+    texels
+        .iter()
+        .map(|t| t.noise().unwrap_or(0.0) * t.samples as f32)
+        .collect()
+}
+
 /// Per texel, the samples the adaptive pass asks for. The first pass gives each texel's
 /// per-sample variance `s` (its noise times its samples), averaged over its 3×3
 /// neighbourhood so that one unlucky estimate neither starves nor floods a texel. The mean
@@ -1299,10 +1307,7 @@ pub struct ProbeSampling {
 /// when `n ∝ √s` (Lagrange), so each texel takes `c·√s` samples, clamped to the first pass
 /// and the cap, with the one `c` (found by bisection) that brings the mean to the target.
 fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f32) -> Vec<u32> {
-    let per_sample: Vec<f32> = first
-        .iter()
-        .map(|t| t.noise().unwrap_or(0.0) * t.samples as f32)
-        .collect();
+    let per_sample = per_sample_variances(first);
     let mut smoothed = vec![0.0f64; n * n];
     for iy in 0..n {
         for ix in 0..n {
@@ -1383,10 +1388,7 @@ fn denoise_probe(
     let nu = n as usize;
     // Per-texel noise: the per-sample variance averaged over the 3×3 neighbourhood, over the
     // texel's samples (the adaptive pass's estimate).
-    let per_sample: Vec<f32> = texels
-        .iter()
-        .map(|t| t.noise().unwrap_or(0.0) * t.samples as f32)
-        .collect();
+    let per_sample = per_sample_variances(texels);
     let mut variance = vec![0.0f32; nu * nu];
     for iy in 0..n {
         for ix in 0..n {
