@@ -1251,10 +1251,6 @@ impl TexelSums {
             return None;
         }
         let total = self.samples as f32;
-        let tone = |v: Vec3| {
-            let v = v.max(Vec3::ZERO);
-            v / (Vec3::ONE + v)
-        };
         let mut weighted = [(0.0f32, Vec3::ZERO); NOISE_REPLICATES as usize];
         let mut mean = Vec3::ZERO;
         for r in 0..replicates {
@@ -1364,7 +1360,8 @@ fn adaptive_counts(first: &[TexelSums], n: usize, sampling: &Sampling, target: f
     counts_for(above)
 }
 
-/// Tone map of the noise estimates (`x / (1 + x)` per channel).
+/// Tone map of the noise estimates and the smoothing's differences (`x / (1 + x)` per
+/// channel, negatives as 0).
 fn tone(v: Vec3) -> Vec3 {
     let v = v.max(Vec3::ZERO);
     v / (Vec3::ONE + v)
@@ -1518,6 +1515,14 @@ fn radiance_pass(
                     row_done();
                 }
             }
+            let mut samples = 0u64;
+            let mut noise = Some(0.0f64);
+            for (t, texel) in texels.iter().enumerate() {
+                map[(t / nu + 1) * side + t % nu + 1] = texel.mean();
+                reflected_map[(t / nu + 1) * side + t % nu + 1] = texel.indirect_mean();
+                samples += u64::from(texel.samples);
+                noise = noise.zip(texel.noise()).map(|(a, b)| a + f64::from(b));
+            }
             if settings.denoise > 0.0 {
                 denoise_probe(
                     layout,
@@ -1527,17 +1532,6 @@ fn radiance_pass(
                     &geometry.normals[local * len..(local + 1) * len],
                     settings.denoise,
                 );
-                let _ = layout.pad(map);
-            }
-            let mut samples = 0u64;
-            let mut noise = Some(0.0f64);
-            for (t, texel) in texels.iter().enumerate() {
-                if settings.denoise == 0.0 {
-                    map[(t / nu + 1) * side + t % nu + 1] = texel.mean();
-                }
-                reflected_map[(t / nu + 1) * side + t % nu + 1] = texel.indirect_mean();
-                samples += u64::from(texel.samples);
-                noise = noise.zip(texel.noise()).map(|(a, b)| a + f64::from(b));
             }
             let _ = layout.pad(map);
             let _ = layout.pad(reflected_map);
