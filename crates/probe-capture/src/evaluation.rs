@@ -357,6 +357,34 @@ pub fn ggx_sub_lobes(
     roughness: f32,
     sectors: u32,
 ) -> Vec<(Vec3, f32)> {
+    ggx_sub_lobe_parts(view, shading_normal, geometric_normal, roughness, sectors)
+        .into_iter()
+        .flatten()
+        .collect()
+}
+
+/// [`ggx_sub_lobes`] with every part in its place: entry `k` is part `k`'s mean direction and
+/// share, or `None` where all its samples fall below the surface. Part `k` of one pixel and
+/// part `k` of its neighbour cover the same azimuths about their views, so where the two see
+/// one surface from nearly one direction they stand for the same light (what
+/// `probe_eval::glossy`'s interleaved sub-lobes share between neighbours).
+///
+/// ```
+/// use glam::Vec3;
+/// let up = Vec3::Y;
+/// let view = Vec3::new(-(60f32.to_radians().sin()), 60f32.to_radians().cos(), 0.0);
+/// let parts = probe_capture::ggx_sub_lobe_parts(view, up, up, 0.3, 4);
+/// assert_eq!(parts.len(), 4);
+/// let kept: Vec<_> = parts.iter().flatten().copied().collect();
+/// assert_eq!(kept, probe_capture::ggx_sub_lobes(view, up, up, 0.3, 4));
+/// ```
+pub fn ggx_sub_lobe_parts(
+    view: Vec3,
+    shading_normal: Vec3,
+    geometric_normal: Vec3,
+    roughness: f32,
+    sectors: u32,
+) -> Vec<Option<(Vec3, f32)>> {
     let sectors = sectors.clamp(1, MAX_LOBE_SECTORS);
     let n = shading_normal;
     let alpha = (roughness * roughness).max(1e-4);
@@ -387,7 +415,7 @@ pub fn ggx_sub_lobes(
     }
     sum.into_iter()
         .zip(total)
-        .filter_map(|(sum, total)| {
+        .map(|(sum, total)| {
             let mean = sum.normalize_or_zero();
             (total > 0.0 && mean != Vec3::ZERO).then(|| (mean, total / (side * side) as f32))
         })

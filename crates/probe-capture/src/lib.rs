@@ -114,8 +114,8 @@ pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FI
 pub use environment::Environment;
 pub use evaluation::{
     EvaluationRay, GBuffer, GBufferSample, MAX_LOBE_SECTORS, ReferenceSample, Reflection,
-    TileOrder, accumulate_rays, ggx_lobe_mean, ggx_sub_lobes, reflection_rays, render_gbuffer,
-    sub_lobe_roughness, trace_reference,
+    TileOrder, accumulate_rays, ggx_lobe_mean, ggx_sub_lobe_parts, ggx_sub_lobes, reflection_rays,
+    render_gbuffer, sub_lobe_roughness, trace_reference,
 };
 pub use final_image::{
     DIELECTRIC_F0, FinalParts, MIRROR_ROUGHNESS, SpecularRays, SurfaceResponse, diffuse_reference,

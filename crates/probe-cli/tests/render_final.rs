@@ -189,4 +189,38 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
         assert_eq!(message.trim().lines().count(), 1, "{message}");
         assert!(!out.exists(), "a refused render wrote {}", out.display());
     }
+    // Interleaved sub-lobes: one ray per pixel, a render of its own; refused without
+    // --filtered and 2 or 4 sectors, and for the final image.
+    let (shared, shared_path) = render(
+        "interleaved",
+        &[&filtered[..], &["--sectors", "2", "--interleave", "--json"]].concat(),
+    );
+    assert!(shared.status.success(), "{}", stderr(&shared));
+    let summary: serde_json::Value = serde_json::from_slice(&shared.stdout).unwrap();
+    assert_eq!(summary["interleaved"], true, "{summary}");
+    assert!(
+        std::fs::read(&shared_path).unwrap() != std::fs::read(&two_path).unwrap(),
+        "--interleave did not change the render"
+    );
+    for (name, extra) in [
+        (
+            "interleave-unfiltered",
+            vec!["--sectors", "2", "--interleave"],
+        ),
+        (
+            "interleave-three",
+            [&filtered[..], &["--sectors", "3", "--interleave"]].concat(),
+        ),
+        (
+            "interleave-final",
+            [&final_image[..], &["--sectors", "2", "--interleave"]].concat(),
+        ),
+    ] {
+        let (output, out) = render(name, &extra);
+        assert!(!output.status.success(), "{name} was accepted");
+        let message = stderr(&output);
+        assert!(message.contains("--interleave"), "{message}");
+        assert_eq!(message.trim().lines().count(), 1, "{message}");
+        assert!(!out.exists(), "a refused render wrote {}", out.display());
+    }
 }

@@ -14,7 +14,10 @@
 //! `nearest_candidates`, default: the tracer's), `STOCHASTIC_MAX_PROBES` (the 16 stochastic
 //! rays' `max_probes`, default: the tracer's),
 //! `FILTERED_SPLIT=K` (a further row: the lobe cut into `K` sectors, one narrower cone each,
-//! `probe_eval::glossy::sub_lobe_rays`) and `BAKE_NOISE=1` (a second bake of the same probes
+//! `probe_eval::glossy::sub_lobe_rays`), `FILTERED_INTERLEAVE=K` (a further row: the lobe
+//! cut into `K` = 2 or 4 parts, each pixel tracing one and taking the others from its
+//! neighbours, `probe_eval::glossy::interleaved_sub_lobe_rays`; its time is the trace's plus
+//! the resolve's on the CPU; with it the picture gains a fifth column) and `BAKE_NOISE=1` (a second bake of the same probes
 //! with the next seed: every probe image is traced through both bakes, and each row gains the
 //! second bake's MSE and the bake's noise, half the tone-mapped MSE between the two images).
 //! One bake (the library's default adaptive sampling, the view's lighting, seed 7), uploaded
@@ -50,7 +53,9 @@ use probe_capture::{
     EvaluationRay, Image, ReferenceSample, Reflection, Sampling, TileOrder, accumulate_rays,
     find_camera, reflection_rays, render_gbuffer,
 };
-use probe_eval::glossy::{filtered_reflection_rays, sub_lobe_rays, sub_lobe_roughness};
+use probe_eval::glossy::{
+    filtered_reflection_rays, interleaved_sub_lobe_rays, sub_lobe_rays, sub_lobe_roughness,
+};
 use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
 use probe_eval::pipeline::{
     Device, EvalView, Selection, ViewSettings, bake_for_view_seeded, build_index, light_field,
@@ -236,6 +241,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let glossy_blend = count("GLOSSY_BLEND", defaults.glossy_blend)?;
     let stochastic_seed = number("STOCHASTIC_SEED", 1)?;
     let sectors = count("FILTERED_SPLIT", 1)?;
+    let interleave = count("FILTERED_INTERLEAVE", 1)?;
     let bake_noise = number("BAKE_NOISE", 0)? != 0;
     let cone_max_probes = count("CONE_MAX_PROBES", defaults.max_probes)?;
     let stochastic_max_probes = count("STOCHASTIC_MAX_PROBES", defaults.max_probes)?;
@@ -266,7 +272,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // One field per bake: the first, and with `BAKE_NOISE` a second of the next seed.
     let mut fields: Vec<AnyField> = Vec::new();
     let mut baked = None;
-    let mut panels: Vec<[Image; 4]> = Vec::new();
+    let mut panels: Vec<Vec<Image>> = Vec::new();
     println!(
         "{scene_spec}: {} probes at {resolution}², {}×{} from {camera_name}, {}",
         probes.positions.len(),
@@ -467,6 +473,46 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
             by_angle.insert(1, (format!("filtered {sectors} rpp"), image));
         }
+        let mut interleaved = None;
+        // Optional: interleaved sub-lobes, one part per pixel shared with its neighbours
+        // (`FILTERED_INTERLEAVE=K`, K = 2 or 4).
+        if interleave > 1 {
+            let lobes = interleaved_sub_lobe_rays(&gbuffer, roughness, interleave)?;
+            let cone = TraceOptions {
+                glossy_roughness: sub_lobe_roughness(roughness, interleave),
+                ..cone
+            };
+            // The traced parts alone (each ray weighted by its share), then resolved.
+            let (_, ms, results) = timed_image(&mut device, field, lobes.rays(), &cone, size, 3)?;
+            let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
+            let start = Instant::now();
+            let image = lobes.resolve(&radiance);
+            let resolve_ms = start.elapsed().as_secs_f64() * 1e3;
+            let (_, mean_flip) = flip(&image, reference)?;
+            println!(
+                "| {roughness} | filtered, {interleave} interleaved sub-lobes (1 rpp) | {} | {:.3e} | {mean_flip:.4} | {:.3e} | {ms:.1} | resolve {resolve_ms:.1} |",
+                lobes.rays().len(),
+                tonemapped_mse(&image, reference),
+                tonemapped_mse(&image, &converged),
+            );
+            if let Some(second) = fields.get(1) {
+                let (_, _, results) =
+                    timed_image(&mut device, second, lobes.rays(), &cone, size, 1)?;
+                let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
+                let other = lobes.resolve(&radiance);
+                println!(
+                    "| {roughness} | interleaved, second bake | | {:.3e} | | bake noise {:.2e} | | |",
+                    tonemapped_mse(&other, reference),
+                    tonemapped_mse(&image, &other) / 2.0,
+                );
+            }
+            println!(
+                "| {roughness} | interleaved (trace + resolve) / stochastic time | | | | | {:.3} | |",
+                (ms + resolve_ms) / stochastic_ms
+            );
+            by_angle.insert(1, (format!("interleaved {interleave}"), image.clone()));
+            interleaved = Some(image);
+        }
         // Where each image's error sits by the angle the camera sees the surface at.
         let columns: Vec<Vec<(f64, f64)>> = by_angle
             .iter()
@@ -540,15 +586,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 100.0 * against_converged.mse,
             );
         }
-        panels.push([unblended, filtered, stochastic, reference.clone()]);
+        let mut row = vec![unblended, filtered];
+        row.extend(interleaved);
+        row.extend([stochastic, reference.clone()]);
+        panels.push(row);
     }
 
-    // The picture: a row per roughness, filtered | stochastic | reference, 4-pixel gaps.
+    // The picture: a row per roughness, filtered | [interleaved |] stochastic | reference,
+    // 4-pixel gaps.
     let gap = 4u32;
     let (w, h) = size;
     let rows = panels.len() as u32;
-    let mut picture = Image::new(4 * w + 3 * gap, rows * h + (rows - 1) * gap);
-    let exposure = panels.last().map_or(1.0, |row| row[3].auto_exposure());
+    let columns = panels.first().map_or(0, Vec::len) as u32;
+    let mut picture = Image::new(
+        columns * w + (columns - 1) * gap,
+        rows * h + (rows - 1) * gap,
+    );
+    let exposure = panels
+        .last()
+        .and_then(|row| row.last())
+        .map_or(1.0, Image::auto_exposure);
     for (row, images) in panels.iter().enumerate() {
         for (column, image) in images.iter().enumerate() {
             for y in 0..h {
@@ -564,7 +621,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = out.join(format!("{name}.png"));
     picture.save_png_with_exposure(&path, exposure)?;
     println!(
-        "wrote {} (rows: roughness {roughnesses:?}; columns: filtered 1 rpp one probe | filtered 1 rpp blended | stochastic 16 rpp | reference)",
+        "wrote {} (rows: roughness {roughnesses:?}; columns: filtered 1 rpp one probe | filtered 1 rpp blended | [interleaved sub-lobes |] stochastic 16 rpp | reference)",
         path.display()
     );
     Ok(())

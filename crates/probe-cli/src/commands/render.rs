@@ -124,6 +124,12 @@ pub struct Args {
     /// 2.23e-3).
     #[arg(long, default_value_t = 1)]
     pub sectors: u32,
+    /// With `--filtered --sectors 2` or `4` (not `final`): each pixel traces one of the lobe's
+    /// parts (a checkerboard, or 2×2 tiles) and takes the others from its neighbours that
+    /// see the same surface (`probe_eval::glossy::interleaved_sub_lobe_rays`): the sectors'
+    /// narrower cones at one ray per pixel.
+    #[arg(long)]
+    pub interleave: bool,
     /// Probes blended per filtered ray (`--filtered`, and `final`'s filtered specular): the
     /// prefiltered reads of the shading point's nearest probes that see the hit, 0 to 8;
     /// 0 reads the answering probe alone.
@@ -291,6 +297,15 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                     .into(),
             });
         }
+        if args.interleave && !(args.filtered && matches!(args.sectors, 2 | 4)) {
+            return Err(CliError::InvalidArgument {
+                parameter: "--interleave",
+                value: format!("sectors {}, filtered {}", args.sectors, args.filtered),
+                reason: "interleaving shares a filtered lobe's parts between neighbours: add \
+                         --filtered and --sectors 2 or 4"
+                    .into(),
+            });
+        }
         if args.sectors != 1 && !args.filtered {
             return Err(CliError::InvalidArgument {
                 parameter: "--sectors",
@@ -298,7 +313,18 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 reason: "sectors cut a filtered lobe: add --filtered (with --roughness > 0)".into(),
             });
         }
-        let rays = if args.filtered {
+        let interleaved = if args.interleave {
+            Some(probe_eval::glossy::interleaved_sub_lobe_rays(
+                &gbuffer,
+                args.roughness,
+                args.sectors,
+            )?)
+        } else {
+            None
+        };
+        let rays = if let Some(interleaved) = &interleaved {
+            interleaved.rays().to_vec()
+        } else if args.filtered {
             probe_eval::glossy::sub_lobe_rays(&gbuffer, args.roughness, args.sectors)?
         } else {
             reflection_rays(&gbuffer, reflection, args.rays_per_pixel, args.seed)?
@@ -384,6 +410,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         map.insert("filtered".into(), json!(args.filtered));
         if args.filtered {
             map.insert("sectors".into(), json!(args.sectors));
+            map.insert("interleaved".into(), json!(args.interleave));
         }
         map.insert("tracer".into(), json!(tracer.name()));
         map.insert("select".into(), json!(selection.name()));
@@ -409,7 +436,17 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         );
         map.insert("first_dispatch_ms".into(), json!(first_dispatch_ms));
         map.insert("index_seconds".into(), json!(index_seconds));
-        accumulate_rays(args.width, args.height, &rays, &radiance)?
+        if let Some(interleaved) = &interleaved {
+            let resolve_start = Instant::now();
+            let image = interleaved.resolve(&radiance);
+            map.insert(
+                "resolve_ms".into(),
+                json!(resolve_start.elapsed().as_secs_f64() * 1e3),
+            );
+            image
+        } else {
+            accumulate_rays(args.width, args.height, &rays, &radiance)?
+        }
     } else {
         let interpolation = match (&grid, args.select) {
             (Some(grid), SelectArg::Grid) => Interpolation::Grid(*grid),
@@ -528,6 +565,15 @@ fn final_component(
             value: args.sectors.to_string(),
             reason: "sectors cut a filtered lobe: use --specular filtered, or \
                      --rays-per-pixel for stochastic specular rays"
+                .into(),
+        });
+    }
+    if args.interleave {
+        return Err(CliError::InvalidArgument {
+            parameter: "--interleave",
+            value: "component final".into(),
+            reason: "interleaved sub-lobes are for the glossy component (--component glossy1 \
+                     --filtered); the final image's specular takes --sectors alone"
                 .into(),
         });
     }

@@ -490,13 +490,17 @@ pub(crate) fn among_samples(field: &PackedField, probe: u32, v: Vec3, fetches: &
 /// it (for a surface point, the point within the thickness of the texel's plane; for the
 /// sky, sky texels), through the map's wrap, so that a surface seen by several texels is not
 /// quantised into texel-sized facets and an edge does not blend in what lies behind it. The
-/// texel `cell` alone where none does. Each texel blended costs a geometry and a radiance
-/// fetch; each rejected one a geometry fetch.
+/// texel `cell` alone where none does. With `sharp`, a surface point whose texels form a step
+/// takes one side of it ([`step_edge`]); a cone's read (`TraceOptions::glossy_roughness` > 0)
+/// passes `false` and blends, as its prefiltered levels do. Each texel blended costs a
+/// geometry and a radiance fetch; each rejected one a geometry fetch.
+#[allow(clippy::too_many_arguments)]
 fn filtered_radiance(
     field: &PackedField,
     probe: u32,
     v: Vec3,
     sky: bool,
+    sharp: bool,
     cell: UVec2,
     fetches: &mut u32,
 ) -> [f32; 3] {
@@ -543,7 +547,7 @@ fn filtered_radiance(
         if clear_weight > 0.0 {
             return (clear_sum / clear_weight).to_array();
         }
-        if !sky && is_step(&shown[..count]) {
+        if !sky && sharp && is_step(&shown[..count]) {
             // The texels around the four that show the point give the step's two sides
             // where the four are only partly lit (one fetch each, two where it shows it).
             let mut ring = [Vec3::ZERO; 12];
@@ -737,7 +741,7 @@ fn glossy_radiance(
 ) -> [f32; 3] {
     let r = v.length();
     if params.glossy_levels == 0 || r <= 0.0 {
-        return filtered_radiance(field, probe, v, sky, cell, fetches);
+        return filtered_radiance(field, probe, v, sky, true, cell, fetches);
     }
     let angle = if sky {
         params.glossy_angle
@@ -751,7 +755,16 @@ fn glossy_radiance(
     let f = lambda - lambda.floor();
     let d = v / r;
     let a = if lo == 0 {
-        Vec3::from(filtered_radiance(field, probe, v, sky, cell, fetches))
+        // A cone's read blends: the step-edge read is for rays without one.
+        Vec3::from(filtered_radiance(
+            field,
+            probe,
+            v,
+            sky,
+            params.glossy_tan == 0.0,
+            cell,
+            fetches,
+        ))
     } else {
         glossy_sample(field, params, lo, probe, d, fetches)
     };
@@ -1588,7 +1601,7 @@ pub(crate) fn look_up_point(
         if probe != NO_PROBE {
             record.status = MISS;
             record.radiance = if sky != NO_PROBE {
-                filtered_radiance(field, probe, direction, true, cell, &mut fetches)
+                filtered_radiance(field, probe, direction, true, true, cell, &mut fetches)
             } else {
                 sky_map_radiance(field, direction, &mut fetches)
             };
@@ -1671,6 +1684,7 @@ pub(crate) fn look_up_point(
                 probe,
                 x - field.position(probe),
                 false,
+                true,
                 cell,
                 &mut fetches,
             )

@@ -1047,8 +1047,8 @@ fn among_samples(probe: u32, v: vec3<f32>) -> bool {
 
 // The depth-aware bilinear radiance of `probe` towards point v (relative to it) or, with
 // `sky`, in direction v (src/cpu/mod.rs filtered_radiance); `cell` alone where no texel
-// around shows it.
-fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> vec3<f32> {
+// around shows it; the step-edge read only with `sharp`.
+fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, sharp: bool, cell: vec2<u32>) -> vec3<f32> {
     let n = params.resolution;
     if (length(v) > 0.0) {
         let f = bilinear_coordinate(v, n);
@@ -1098,7 +1098,7 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>) -> ve
         if (clear_weight > 0.0) {
             return clear_sum / clear_weight;
         }
-        if (!sky && count >= 2u) {
+        if (!sky && sharp && count >= 2u) {
             // The step-edge read (src/cpu/mod.rs is_step and step_edge).
             var bright = shown_value[0];
             var dark = shown_value[0];
@@ -1199,7 +1199,7 @@ fn glossy_sample(level: u32, probe: u32, d: vec3<f32>) -> vec3<f32> {
 fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32) -> vec3<f32> {
     let r = length(v);
     if (params.glossy_levels == 0u || r <= 0.0) {
-        return filtered_radiance(probe, v, sky, cell);
+        return filtered_radiance(probe, v, sky, true, cell);
     }
     var angle = params.glossy_angle;
     if (!sky) {
@@ -1211,7 +1211,8 @@ fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32)
     let d = v / r;
     var a: vec3<f32>;
     if (lo == 0u) {
-        a = filtered_radiance(probe, v, sky, cell);
+        // A cone's read blends: the step-edge read is for rays without one.
+        a = filtered_radiance(probe, v, sky, params.glossy_tan == 0.0, cell);
     } else {
         a = glossy_sample(lo, probe, d);
     }
@@ -1845,7 +1846,7 @@ fn look_up_point(index: u32) -> RayRecord {
         if (probe != NO_PROBE) {
             record.status = MISS;
             if (sky != NO_PROBE) {
-                record.radiance = filtered_radiance(probe, direction, true, cell);
+                record.radiance = filtered_radiance(probe, direction, true, true, cell);
             } else {
                 record.radiance = sky_map_radiance(direction);
             }
@@ -1931,7 +1932,7 @@ fn look_up_point(index: u32) -> RayRecord {
     record.probes_tried = examined;
     if (probe != NO_PROBE) {
         if (record.status == HIT) {
-            record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, cell);
+            record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, true, cell);
         } else {
             fetches += 1u;
             record.radiance = radiance_at(probe, cell);
