@@ -438,6 +438,40 @@ mod tests {
         assert!(interleaved_sub_lobe_rays(&gbuffer_of(&scene), 0.0, 2).is_err());
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+        /// Where every ray reads one radiance, the resolve gives each pixel that radiance
+        /// times its lobe's whole weight, whatever the image's size, the roughness and the
+        /// number of parts (edge pixels, whose neighbours lack a part, included): sharing
+        /// moves light between parts, never makes or loses it.
+        #[test]
+        fn the_resolve_keeps_a_constant_light(
+            width in 1u32..24,
+            height in 1u32..24,
+            roughness in 0.05f32..1.0,
+            four in proptest::bool::ANY,
+            value in 0.01f32..20.0,
+        ) {
+            let scene = Scene::open("builtin:cornell").unwrap();
+            let gbuffer = render_gbuffer(&scene, &scene.default_camera(), width, height).unwrap();
+            let sectors = if four { 4 } else { 2 };
+            let lobes = interleaved_sub_lobe_rays(&gbuffer, roughness, sectors).unwrap();
+            let radiance = vec![Vec3::splat(value); lobes.rays().len()];
+            let image = lobes.resolve(&radiance);
+            let mut whole = vec![0.0f32; (width * height) as usize];
+            for ray in filtered_reflection_rays(&gbuffer, roughness).unwrap() {
+                whole[ray.pixel as usize] += ray.weight;
+            }
+            for (pixel, rgb) in image.rgb.iter().enumerate() {
+                let expected = value * whole[pixel];
+                proptest::prop_assert!(
+                    (rgb[0] - expected).abs() <= 1e-4 * expected.max(1.0),
+                    "pixel {pixel}: {} against {expected}", rgb[0]
+                );
+            }
+        }
+    }
+
     fn gbuffer_of(scene: &Scene) -> GBuffer {
         render_gbuffer(scene, &scene.default_camera(), 4, 4).unwrap()
     }
