@@ -54,7 +54,8 @@ use probe_capture::{
     find_camera, reflection_rays, render_gbuffer,
 };
 use probe_eval::glossy::{
-    filtered_reflection_rays, interleaved_sub_lobe_rays, sub_lobe_rays, sub_lobe_roughness,
+    InterleavedSubLobes, filtered_reflection_rays, interleaved_sub_lobe_rays, sub_lobe_rays,
+    sub_lobe_roughness,
 };
 use probe_eval::metrics::{Footprints, classify_pixels, flip, tonemapped_mse};
 use probe_eval::pipeline::{
@@ -114,9 +115,10 @@ fn timed_image(
     ))
 }
 
-/// With a second bake (`BAKE_NOISE`): the image of the same rays traced through it, printed as
-/// a row under `label` with its MSE against the reference and the bake's noise (half the
-/// tone-mapped MSE between the two bakes' images, the variance of one).
+/// With a second bake (`BAKE_NOISE`): the image of the same rays traced through it (resolved
+/// by `interleaved` where the rays are interleaved sub-lobes), printed as a row under `label`
+/// with its MSE against the reference and the bake's noise (half the tone-mapped MSE between
+/// the two bakes' images, the variance of one).
 #[allow(
     clippy::too_many_arguments,
     reason = "one image's rays and options, and the images it is compared with"
@@ -131,11 +133,16 @@ fn second_bake_row(
     reference: &Image,
     label: &str,
     roughness: f32,
+    interleaved: Option<&InterleavedSubLobes>,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let Some(second) = fields.get(1) else {
         return Ok(());
     };
-    let (image, _, _) = timed_image(device, second, rays, options, size, 1)?;
+    let (mut image, _, results) = timed_image(device, second, rays, options, size, 1)?;
+    if let Some(lobes) = interleaved {
+        let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
+        image = lobes.resolve(&radiance);
+    }
     println!(
         "| {roughness} | {label}, second bake | | {:.3e} | | bake noise {:.2e} | | |",
         tonemapped_mse(&image, reference),
@@ -426,6 +433,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 reference,
                 label,
                 roughness,
+                None,
             )?;
         }
         println!(
@@ -466,6 +474,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 reference,
                 "sub-lobes",
                 roughness,
+                None,
             )?;
             println!(
                 "| {roughness} | filtered {sectors} rpp / stochastic time | | | | | {:.3} | |",
@@ -495,17 +504,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 tonemapped_mse(&image, reference),
                 tonemapped_mse(&image, &converged),
             );
-            if let Some(second) = fields.get(1) {
-                let (_, _, results) =
-                    timed_image(&mut device, second, lobes.rays(), &cone, size, 1)?;
-                let radiance: Vec<Vec3> = results.iter().map(|r| r.radiance).collect();
-                let other = lobes.resolve(&radiance);
-                println!(
-                    "| {roughness} | interleaved, second bake | | {:.3e} | | bake noise {:.2e} | | |",
-                    tonemapped_mse(&other, reference),
-                    tonemapped_mse(&image, &other) / 2.0,
-                );
-            }
+            second_bake_row(
+                &mut device,
+                &fields,
+                lobes.rays(),
+                &cone,
+                size,
+                &image,
+                reference,
+                "interleaved",
+                roughness,
+                Some(&lobes),
+            )?;
             println!(
                 "| {roughness} | interleaved (trace + resolve) / stochastic time | | | | | {:.3} | |",
                 (ms + resolve_ms) / stochastic_ms

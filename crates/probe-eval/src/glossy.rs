@@ -91,8 +91,8 @@ pub use probe_capture::sub_lobe_roughness;
 /// rays): [`sub_lobe_rays`] cuts each pixel's lobe into `sectors` parts, but here each pixel
 /// traces only one of them, by a fixed pattern (2 parts: a checkerboard; 4 parts: 2×2 tiles),
 /// and [`InterleavedSubLobes::resolve`] takes every other part from the nearest pixels that
-/// traced it and see the same surface (and averages its own with theirs) (normals within 25°, on the pixel's plane within 1 % of
-/// its distance from the camera). Part `k` of neighbouring pixels covers the same azimuths
+/// traced it and see the same surface (normals within 25°, on the pixel's plane within 1 % of
+/// its distance from the camera), averaging its own part with theirs. Part `k` of neighbouring pixels covers the same azimuths
 /// about their views ([`probe_capture::ggx_sub_lobe_parts`]), so the image has the sub-lobes'
 /// narrower cones at one ray per pixel. A part no neighbour can stand in for is left out and
 /// the pixel's traced parts are scaled up to its whole weight.
@@ -275,20 +275,16 @@ pub fn interleaved_sub_lobe_rays(
         ray_of_pixel: vec![None; parts.len()],
         part_of_ray: Vec::new(),
         rays: Vec::new(),
-        surfaces: gbuffer
-            .pixels
-            .iter()
-            .map(|sample| {
-                sample.filter(|s| !s.back_face).map(|s| Surface {
-                    position: s.position,
-                    geometric_normal: s.geometric_normal,
-                    shading_normal: s.shading_normal,
-                    distance: s.distance,
-                })
-            })
-            .collect(),
+        surfaces: Vec::with_capacity(parts.len()),
     };
     for (pixel, pixel_parts) in parts.iter().enumerate() {
+        let front = gbuffer.pixels[pixel].filter(|s| !s.back_face);
+        lobes.surfaces.push(front.map(|s| Surface {
+            position: s.position,
+            geometric_normal: s.geometric_normal,
+            shading_normal: s.shading_normal,
+            distance: s.distance,
+        }));
         lobes
             .shares
             .extend(pixel_parts.iter().map(|p| p.map_or(0.0, |(_, w)| w)));
@@ -297,7 +293,7 @@ pub fn interleaved_sub_lobe_rays(
         let chosen = (0..k)
             .map(|i| (first + i) % k)
             .find_map(|part| pixel_parts[part].map(|lobe| (part, lobe)));
-        if let (Some((part, (direction, share))), Some(s)) = (chosen, gbuffer.pixels[pixel]) {
+        if let (Some((part, (direction, share))), Some(s)) = (chosen, front) {
             lobes.ray_of_pixel[pixel] = Some(lobes.rays.len() as u32);
             lobes.part_of_ray.push(part as u8);
             lobes
@@ -358,13 +354,7 @@ mod tests {
         let gbuffer = render_gbuffer(&scene, &scene.default_camera(), 16, 16).unwrap();
         let filtered = filtered_reflection_rays(&gbuffer, 0.3).unwrap();
         assert_eq!(sub_lobe_rays(&gbuffer, 0.3, 1).unwrap(), filtered);
-        let per_pixel = |rays: &[EvaluationRay]| {
-            let mut sums = vec![0.0f64; 256];
-            for r in rays {
-                sums[r.pixel as usize] += f64::from(r.weight);
-            }
-            sums
-        };
+        let per_pixel = |rays: &[EvaluationRay]| weight_per_pixel(rays, 256);
         for sectors in [2, 4] {
             let split = sub_lobe_rays(&gbuffer, 0.3, sectors).unwrap();
             assert!(
@@ -402,20 +392,11 @@ mod tests {
             // Each pixel's own part alone, scaled to the lobe's weight: what sharing improves on.
             let own_part = accumulate_rays(w, h, lobes.rays(), &radiance).unwrap();
             let mut scaled = own_part.clone();
-            for (pixel, rgb) in scaled.rgb.iter_mut().enumerate() {
-                let whole: f32 = filtered
-                    .iter()
-                    .filter(|r| r.pixel as usize == pixel)
-                    .map(|r| r.weight)
-                    .sum();
-                let own: f32 = lobes
-                    .rays()
-                    .iter()
-                    .filter(|r| r.pixel as usize == pixel)
-                    .map(|r| r.weight)
-                    .sum();
+            let whole = weight_per_pixel(&filtered, (w * h) as usize);
+            let own = weight_per_pixel(lobes.rays(), (w * h) as usize);
+            for ((rgb, whole), own) in scaled.rgb.iter_mut().zip(whole).zip(own) {
                 if own > 0.0 {
-                    *rgb = (Vec3::from(*rgb) * (whole / own)).to_array();
+                    *rgb = (Vec3::from(*rgb) * (whole / own) as f32).to_array();
                 }
             }
             let (shared, alone) = (image.mse(&truth).unwrap(), scaled.mse(&truth).unwrap());
@@ -458,18 +439,27 @@ mod tests {
             let lobes = interleaved_sub_lobe_rays(&gbuffer, roughness, sectors).unwrap();
             let radiance = vec![Vec3::splat(value); lobes.rays().len()];
             let image = lobes.resolve(&radiance);
-            let mut whole = vec![0.0f32; (width * height) as usize];
-            for ray in filtered_reflection_rays(&gbuffer, roughness).unwrap() {
-                whole[ray.pixel as usize] += ray.weight;
-            }
+            let whole = weight_per_pixel(
+                &filtered_reflection_rays(&gbuffer, roughness).unwrap(),
+                (width * height) as usize,
+            );
             for (pixel, rgb) in image.rgb.iter().enumerate() {
-                let expected = value * whole[pixel];
+                let expected = value * whole[pixel] as f32;
                 proptest::prop_assert!(
                     (rgb[0] - expected).abs() <= 1e-4 * expected.max(1.0),
                     "pixel {pixel}: {} against {expected}", rgb[0]
                 );
             }
         }
+    }
+
+    /// The sum of the rays' weights in each of `pixels` pixels.
+    fn weight_per_pixel(rays: &[EvaluationRay], pixels: usize) -> Vec<f64> {
+        let mut sums = vec![0.0f64; pixels];
+        for r in rays {
+            sums[r.pixel as usize] += f64::from(r.weight);
+        }
+        sums
     }
 
     fn gbuffer_of(scene: &Scene) -> GBuffer {
