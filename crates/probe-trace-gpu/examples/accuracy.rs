@@ -18,7 +18,14 @@
 //! ```
 //!
 //! With a `probes/1` file (`probes place --out`), that probe set is traced instead of the
-//! scene's grids (Voronoi and octree selection).
+//! scene's grids (Voronoi and octree selection). `ACCURACY_RESOLUTION=N` bakes the real
+//! scenes' probes at N² instead of 256².
+//!
+//! On stderr, for each probe set's default row: the **ceiling** (the share of seen hits that
+//! some probe that sees them stores in the texel of their direction, which no tracer of
+//! these maps passes but by chance) and where the tracer's failures on seen hits sit, by
+//! answer and by how the answering probe holds the true hit (BENCHMARKS.md, "What the bake
+//! holds, and where the tracer loses it").
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -29,6 +36,7 @@ use glam::{Vec2, Vec3};
 use probe_index::{
     NearestProbe, ProbeGrid, SparseVoxelOctree, SvoOptions, Tetrahedralization, VoronoiNeighbours,
 };
+use probe_octa::OctaLayout;
 use probe_scene::{Camera, Ray, Scene};
 use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, TraceMethod, TraceOptions,
@@ -84,6 +92,139 @@ fn wrong_split(
     (early, late, other)
 }
 
+/// What the bake itself can answer, per ray with a true hit that some probe sees (the
+/// table's "seen"): `Some(true)` where a probe that sees the hit stores it, i.e. the centre
+/// ray of the probe's texel holding the hit's direction ends within one footprint of the hit;
+/// `Some(false)` where every probe that sees it stores something else there (a surface
+/// thinner than a texel, an edge across the texel's centre); `None` for rays with no seen
+/// true hit. No tracer of this bake's texels answers the `Some(false)` rays within one
+/// footprint but by chance: the share of `Some(true)` is the within-one-footprint ceiling.
+fn stored_hits(scene: &Scene, bake: &Bake, rays: &[Ray]) -> Vec<Option<bool>> {
+    rays.iter()
+        .map(|ray| {
+            let hit = scene.closest_hit(ray, f32::INFINITY)?;
+            let views: Vec<ProbeView> = (0..bake.positions.len())
+                .map(|k| probe_view(scene, bake, k, &hit))
+                .collect();
+            if views.contains(&ProbeView::Stores) {
+                Some(true)
+            } else {
+                views.contains(&ProbeView::SeesOnly).then_some(false)
+            }
+        })
+        .collect()
+}
+
+/// How probe `k` holds a surface point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum ProbeView {
+    /// Hidden from the probe, or seen at a grazing angle (cosine 0.1 or less).
+    Hidden,
+    /// Seen, but the centre ray of the texel holding its direction ends more than one
+    /// footprint from it.
+    SeesOnly,
+    /// Seen, and that centre ray ends within one footprint of it.
+    Stores,
+}
+
+fn probe_view(scene: &Scene, bake: &Bake, k: usize, hit: &probe_scene::Hit) -> ProbeView {
+    let layout = OctaLayout::new(bake.resolution).unwrap();
+    let p = bake.positions[k];
+    let v = hit.position - p;
+    let d = v.length();
+    if d <= 1e-4
+        || hit.geometric_normal.dot(v / d).abs() <= 0.1
+        || scene.occluded(&Ray::new(p, v), d * (1.0 - 1e-4) - 1e-4)
+    {
+        return ProbeView::Hidden;
+    }
+    let [ix, iy] = layout.texel_containing(v / d);
+    let stored = bake.distance[k * layout.padded_len() + layout.interior_index(ix, iy)];
+    let point = p + layout.texel_direction(ix, iy) * stored;
+    let f = footprint(bake.resolution, p, hit.position, hit.geometric_normal);
+    if (point - hit.position).length() <= f {
+        ProbeView::Stores
+    } else {
+        ProbeView::SeesOnly
+    }
+}
+
+/// Prints (stderr) the ceiling of [`stored_hits`] and where the tracer's failures on seen
+/// hits sit: of the seen hits not answered within one footprint, those the bake stores
+/// (the tracer's to find) and those it does not (the resolution's), and the stored ones split
+/// by the answer (a hit before the true one, behind it, UNKNOWN, a miss) and by how the
+/// answering probe holds the true hit ([`ProbeView`]).
+fn failure_classes(
+    scene: &Scene,
+    bake: &Bake,
+    rays: &[Ray],
+    results: &[RayResult],
+    stored: &[Option<bool>],
+    label: &str,
+) {
+    let seen = stored.iter().flatten().count();
+    let stored_count = stored.iter().flatten().filter(|&&s| s).count();
+    let mut unstored = 0;
+    // [early, late, unknown, miss] × [hidden, sees only, stores, no probe]
+    let mut classes = [[0usize; 4]; 4];
+    let mut unstarted = 0;
+    for ((ray, r), s) in rays.iter().zip(results).zip(stored) {
+        let Some(s) = *s else { continue };
+        let h = scene.closest_hit(ray, f32::INFINITY).unwrap();
+        let within = r.status == RayStatus::Hit
+            && r.probe.is_some_and(|p| {
+                let f = footprint(
+                    bake.resolution,
+                    bake.positions[p as usize],
+                    h.position,
+                    h.geometric_normal,
+                );
+                (r.position - h.position).length() <= f
+            });
+        if within {
+            continue;
+        }
+        if !s {
+            unstored += 1;
+            continue;
+        }
+        let answer = match r.status {
+            RayStatus::Hit if r.t < h.t => 0,
+            RayStatus::Hit => 1,
+            RayStatus::Unknown => 2,
+            RayStatus::Miss => 3,
+        };
+        let view = match r.probe.map(|p| probe_view(scene, bake, p as usize, &h)) {
+            Some(ProbeView::Hidden) => 0,
+            Some(ProbeView::SeesOnly) => 1,
+            Some(ProbeView::Stores) => 2,
+            None => 3,
+        };
+        classes[answer][view] += 1;
+        unstarted += usize::from(r.status == RayStatus::Unknown && r.probes_tried == 0);
+    }
+    let pct = |x: usize| 100.0 * x as f64 / seen.max(1) as f64;
+    let row = |c: [usize; 4]| {
+        format!(
+            "{:.2} % (answering probe: hidden {:.2} / sees only {:.2} / stores {:.2})",
+            pct(c.iter().sum()),
+            pct(c[0]),
+            pct(c[1]),
+            pct(c[2] + c[3]),
+        )
+    };
+    eprintln!(
+        "  ({label}: ceiling {:.1} % of seen hits stored by a probe that sees them; seen hits not within one footprint, not stored {:.2} %, stored: hit before the true one {}, behind it {}, UNKNOWN {} ({:.2} % tried no probe), miss {:.2} %)",
+        pct(stored_count),
+        pct(unstored),
+        row(classes[0]),
+        row(classes[1]),
+        row(classes[2]),
+        pct(unstarted),
+        pct(classes[3].iter().sum()),
+    );
+}
+
 #[allow(clippy::too_many_arguments)]
 fn rows(
     scene: &Scene,
@@ -105,6 +246,7 @@ fn rows(
     let hits = scene.closest_hits(rays, f32::INFINITY);
     let bvh = t.elapsed();
     let queries = hit_queries(rays, &hits);
+    let stored = stored_hits(scene, &bake, rays);
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     let pct = |x: usize, of: usize| 100.0 * x as f64 / of.max(1) as f64;
     for &name in selectors {
@@ -208,6 +350,16 @@ fn rows(
                 ms(bvh),
                 hiz.timing.wall.as_secs_f64() / bvh.as_secs_f64(),
             );
+            if variant.starts_with("16 probes, no distance ranges") {
+                failure_classes(
+                    scene,
+                    &bake,
+                    rays,
+                    &hiz.results,
+                    &stored,
+                    &format!("{label}, {name}, {resolution}²"),
+                );
+            }
         }
         // The hybrid: exact hits, radiance from the probes that see them.
         let t = Instant::now();
@@ -237,6 +389,15 @@ fn rows(
         );
         eprintln!("  ({label}, {name}: mini bake {bake_time:?}, upload {upload:?} on the CPU)");
     }
+}
+
+/// The real scenes' probe resolution: 256, or `ACCURACY_RESOLUTION` (to see how the ceiling
+/// of `stored_hits` moves with it).
+fn real_scene_resolution() -> u32 {
+    std::env::var("ACCURACY_RESOLUTION")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(256)
 }
 
 /// Mirror reflections of the first hits of a `w×h` image from `camera`.
@@ -315,7 +476,7 @@ fn sponza(region_only: bool, file: Option<&String>) {
             "sponza",
             &positions,
             None,
-            256,
+            real_scene_resolution(),
             1000.0,
             &rays,
             &["svo", "voronoi"],
@@ -336,7 +497,7 @@ fn sponza(region_only: bool, file: Option<&String>) {
             "sponza",
             &grid.positions(),
             Some(grid),
-            256,
+            real_scene_resolution(),
             1000.0,
             &rays,
             &["grid"],
@@ -354,7 +515,7 @@ fn sponza(region_only: bool, file: Option<&String>) {
         "sponza, region grid",
         &grid.positions(),
         Some(grid),
-        256,
+        real_scene_resolution(),
         1000.0,
         &rays,
         &["grid", "voronoi"],
@@ -381,7 +542,7 @@ fn interior(label: &str, path: &str, counts: [u32; 3]) {
         label,
         &grid.positions(),
         Some(grid),
-        256,
+        real_scene_resolution(),
         sky,
         &rays,
         &["grid", "voronoi"],

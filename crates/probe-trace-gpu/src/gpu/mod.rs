@@ -196,6 +196,24 @@ impl GpuContext {
     pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
         &self.info
     }
+
+    /// A warning when wgpu fell back to its OpenGL backend: it does when no Vulkan (or
+    /// Metal, DX12) driver is installed, and on a machine without a GPU that means Mesa's
+    /// llvmpipe through GL, which traces the same answers but not at the speed of lavapipe
+    /// or a GPU, so timings taken there are not the figures they look like. `None` on every
+    /// other backend.
+    pub fn backend_note(&self) -> Option<String> {
+        backend_note(&self.info)
+    }
+}
+
+/// [`GpuContext::backend_note`] of an adapter.
+fn backend_note(info: &wgpu::AdapterInfo) -> Option<String> {
+    (info.backend == wgpu::Backend::Gl).then(|| {
+        "wgpu fell back to OpenGL: no Vulkan driver was found (install one, e.g. Debian's \
+         mesa-vulkan-drivers for lavapipe, or set WGPU_BACKEND to choose)"
+            .to_owned()
+    })
 }
 
 /// Timestamp queries around each compute pass.
@@ -554,8 +572,12 @@ impl GpuTracer {
     pub fn new(context: &GpuContext) -> Result<Self, GpuError> {
         let mut tracer = Self::from_device(context.device.clone(), context.queue.clone())?;
         tracer.adapter = Some(format!(
-            "{} ({:?})",
-            context.info.name, context.info.backend
+            "{} ({:?}){}",
+            context.info.name,
+            context.info.backend,
+            context
+                .backend_note()
+                .map_or(String::new(), |n| format!(" — {n}"))
         ));
         Ok(tracer)
     }

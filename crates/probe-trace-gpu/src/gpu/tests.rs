@@ -252,3 +252,11 @@ fn diffuse_constants_match_the_wgsl() {
         assert_eq!(wgsl_u32_constant(&diffuse, name), value, "{name}");
     }
 }
+
+#[test]
+fn an_opengl_fallback_is_named_and_other_backends_are_not() {
+    let info = |backend| wgpu::AdapterInfo::new(wgpu::DeviceType::Cpu, backend);
+    let note = super::backend_note(&info(wgpu::Backend::Gl)).expect("GL is named");
+    assert!(note.contains("mesa-vulkan-drivers"), "{note}");
+    assert_eq!(super::backend_note(&info(wgpu::Backend::Vulkan)), None);
+}
