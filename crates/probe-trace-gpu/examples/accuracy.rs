@@ -42,6 +42,7 @@ use probe_trace_gpu::{
     CpuTracer, FieldOptions, ProbeSelection, RayResult, RayStatus, TraceMethod, TraceOptions,
     TraceSummary, Tracer,
 };
+use rayon::prelude::*;
 use support::{
     Bake, accuracy, albedo_shade, footprint, hit_queries, mini_capture, reflection_rays,
     to_trace_rays,
@@ -71,13 +72,7 @@ fn wrong_split(
         let truth = scene.closest_hit(ray, f32::INFINITY);
         match (&truth, r.status, r.probe) {
             (Some(h), RayStatus::Hit, Some(p)) => {
-                let f = footprint(
-                    bake.resolution,
-                    bake.positions[p as usize],
-                    h.position,
-                    h.geometric_normal,
-                );
-                if (r.position - h.position).length() > 2.0 * f {
+                if misses_by(bake, r, p, h) > 2.0 {
                     if r.t < h.t {
                         early += 1;
                     } else {
@@ -92,6 +87,17 @@ fn wrong_split(
     (early, late, other)
 }
 
+/// How far the answer `r` (by probe `p`) lies from the true hit `h`, in footprints of `p`.
+fn misses_by(bake: &Bake, r: &RayResult, p: u32, h: &probe_scene::Hit) -> f32 {
+    let f = footprint(
+        bake.resolution,
+        bake.positions[p as usize],
+        h.position,
+        h.geometric_normal,
+    );
+    (r.position - h.position).length() / f
+}
+
 /// What the bake itself can answer, per ray with a true hit that some probe sees (the
 /// table's "seen"): `Some(true)` where a probe that sees the hit stores it, i.e. the centre
 /// ray of the probe's texel holding the hit's direction ends within one footprint of the hit;
@@ -100,7 +106,7 @@ fn wrong_split(
 /// true hit. No tracer of this bake's texels answers the `Some(false)` rays within one
 /// footprint but by chance: the share of `Some(true)` is the within-one-footprint ceiling.
 fn stored_hits(scene: &Scene, bake: &Bake, rays: &[Ray]) -> Vec<Option<bool>> {
-    rays.iter()
+    rays.par_iter()
         .map(|ray| {
             let hit = scene.closest_hit(ray, f32::INFINITY)?;
             let views: Vec<ProbeView> = (0..bake.positions.len())
@@ -171,17 +177,7 @@ fn failure_classes(
     for ((ray, r), s) in rays.iter().zip(results).zip(stored) {
         let Some(s) = *s else { continue };
         let h = scene.closest_hit(ray, f32::INFINITY).unwrap();
-        let within = r.status == RayStatus::Hit
-            && r.probe.is_some_and(|p| {
-                let f = footprint(
-                    bake.resolution,
-                    bake.positions[p as usize],
-                    h.position,
-                    h.geometric_normal,
-                );
-                (r.position - h.position).length() <= f
-            });
-        if within {
+        if r.status == RayStatus::Hit && r.probe.is_some_and(|p| misses_by(bake, r, p, &h) <= 1.0) {
             continue;
         }
         if !s {
