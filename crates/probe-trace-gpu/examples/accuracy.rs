@@ -71,13 +71,11 @@ fn wrong_split(
         }
         let truth = scene.closest_hit(ray, f32::INFINITY);
         match (&truth, r.status, r.probe) {
-            (Some(h), RayStatus::Hit, Some(p)) => {
-                if misses_by(bake, r, p, h) > 2.0 {
-                    if r.t < h.t {
-                        early += 1;
-                    } else {
-                        late += 1;
-                    }
+            (Some(h), RayStatus::Hit, Some(p)) if misses_by(bake, r, p, h) > 2.0 => {
+                if r.t < h.t {
+                    early += 1;
+                } else {
+                    late += 1;
                 }
             }
             (Some(_), RayStatus::Miss, _) | (None, RayStatus::Hit, _) => other += 1,
