@@ -23,7 +23,8 @@
 //!
 //! On stderr, for each probe set's default row: the **ceiling** (the share of seen hits that
 //! some probe that sees them stores in the texel of their direction, which no tracer of
-//! these maps passes but by chance) and where the tracer's failures on seen hits sit, by
+//! these maps passes but by chance; hits within a footprint of the ray's own start apart)
+//! and where the tracer's failures on seen hits sit, by
 //! answer and by how the answering probe holds the true hit (BENCHMARKS.md, "What the bake
 //! holds, and where the tracer loses it").
 
@@ -96,25 +97,51 @@ fn misses_by(bake: &Bake, r: &RayResult, p: u32, h: &probe_scene::Hit) -> f32 {
     (r.position - h.position).length() / f
 }
 
-/// What the bake itself can answer, per ray with a true hit that some probe sees (the
-/// table's "seen"): `Some(true)` where a probe that sees the hit stores it, i.e. the centre
-/// ray of the probe's texel holding the hit's direction ends within one footprint of the hit;
-/// `Some(false)` where every probe that sees it stores something else there (a surface
-/// thinner than a texel, an edge across the texel's centre); `None` for rays with no seen
-/// true hit. No tracer of this bake's texels answers the `Some(false)` rays within one
-/// footprint but by chance: the share of `Some(true)` is the within-one-footprint ceiling.
-fn stored_hits(scene: &Scene, bake: &Bake, rays: &[Ray]) -> Vec<Option<bool>> {
+/// What the bake can answer of a ray whose true hit some probe sees (the table's "seen").
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Held {
+    /// The hit lies within one footprint of the ray's own start for every probe that sees it
+    /// (a moulding, a crevice, a step beside where the ray leaves): no tracer of these texels
+    /// tells the ray meeting it from the ray leaving its surface.
+    AtStart,
+    /// A probe that sees the hit stores it: the centre ray of the probe's texel holding the
+    /// hit's direction ends within one footprint of the hit.
+    Stored,
+    /// Every probe that sees it stores something else there (a surface thinner than a
+    /// texel, an edge across the texel's centre).
+    NotStored,
+}
+
+/// [`Held`] per ray (`None`: no true hit, or none that a probe sees). The share of
+/// [`Held::Stored`] among seen hits is the within-one-footprint ceiling of any tracer of
+/// these texels (passed only by chance).
+fn stored_hits(scene: &Scene, bake: &Bake, rays: &[Ray]) -> Vec<Option<Held>> {
     rays.par_iter()
         .map(|ray| {
             let hit = scene.closest_hit(ray, f32::INFINITY)?;
-            let views: Vec<ProbeView> = (0..bake.positions.len())
-                .map(|k| probe_view(scene, bake, k, &hit))
+            let views: Vec<(ProbeView, f32)> = (0..bake.positions.len())
+                .map(|k| {
+                    let f = footprint(
+                        bake.resolution,
+                        bake.positions[k],
+                        hit.position,
+                        hit.geometric_normal,
+                    );
+                    (probe_view(scene, bake, k, &hit), f)
+                })
                 .collect();
-            if views.contains(&ProbeView::Stores) {
-                Some(true)
+            let nearest_footprint = views
+                .iter()
+                .filter(|(v, _)| *v != ProbeView::Hidden)
+                .map(|&(_, f)| f)
+                .reduce(f32::min)?;
+            Some(if hit.t <= nearest_footprint {
+                Held::AtStart
+            } else if views.iter().any(|(v, _)| *v == ProbeView::Stores) {
+                Held::Stored
             } else {
-                views.contains(&ProbeView::SeesOnly).then_some(false)
-            }
+                Held::NotStored
+            })
         })
         .collect()
 }
@@ -163,12 +190,12 @@ fn failure_classes(
     bake: &Bake,
     rays: &[Ray],
     results: &[RayResult],
-    stored: &[Option<bool>],
+    stored: &[Option<Held>],
     label: &str,
 ) {
     let seen = stored.iter().flatten().count();
-    let stored_count = stored.iter().flatten().filter(|&&s| s).count();
-    let mut unstored = 0;
+    let count = |held: Held| stored.iter().flatten().filter(|&&s| s == held).count();
+    let (mut unstored, mut at_start) = (0, 0);
     // [early, late, unknown, miss] × [hidden, sees only, stores, no probe]
     let mut classes = [[0usize; 4]; 4];
     let mut unstarted = 0;
@@ -178,9 +205,16 @@ fn failure_classes(
         if r.status == RayStatus::Hit && r.probe.is_some_and(|p| misses_by(bake, r, p, &h) <= 1.0) {
             continue;
         }
-        if !s {
-            unstored += 1;
-            continue;
+        match s {
+            Held::AtStart => {
+                at_start += 1;
+                continue;
+            }
+            Held::NotStored => {
+                unstored += 1;
+                continue;
+            }
+            Held::Stored => {}
         }
         let answer = match r.status {
             RayStatus::Hit if r.t < h.t => 0,
@@ -208,8 +242,10 @@ fn failure_classes(
         )
     };
     eprintln!(
-        "  ({label}: ceiling {:.1} % of seen hits stored by a probe that sees them; seen hits not within one footprint, not stored {:.2} %, stored: hit before the true one {}, behind it {}, UNKNOWN {} ({:.2} % tried no probe), miss {:.2} %)",
-        pct(stored_count),
+        "  ({label}: ceiling {:.1} % of seen hits stored by a probe that sees them, {:.2} % within a footprint of the ray's start; seen hits not within one footprint: at the start {:.2} %, not stored {:.2} %, stored: hit before the true one {}, behind it {}, UNKNOWN {} ({:.2} % tried no probe), miss {:.2} %)",
+        pct(count(Held::Stored)),
+        pct(count(Held::AtStart)),
+        pct(at_start),
         pct(unstored),
         row(classes[0]),
         row(classes[1]),
