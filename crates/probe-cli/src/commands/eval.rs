@@ -3,7 +3,7 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::spec::MemoryArgs;
-use probe_eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
+use probe_eval::sweep::{EvalConfig, FLAT_GRID_SPREAD, SceneConfig, SweepReport, run_sweep};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -158,8 +158,20 @@ impl Report for EvalSummary {
         for (scene, figure) in &h.probes_to_match_best_grid {
             match figure {
                 Some(f) => text.push_str(&format!(
-                    "{scene}: {} probes ({}) match the best grid {} ({} probes): ratio {:.2}\n",
-                    f.probes, f.placement, f.grid, f.grid_probes, f.ratio
+                    "{scene}: {} probes ({}) match the best grid {} ({} probes): ratio {:.2}{}\n",
+                    f.probes,
+                    f.placement,
+                    f.grid,
+                    f.grid_probes,
+                    f.ratio,
+                    if f.grid_spread < FLAT_GRID_SPREAD {
+                        format!(
+                            " (the grids lie within {:.2}x of each other: the error hardly moves with the count)",
+                            f.grid_spread
+                        )
+                    } else {
+                        String::new()
+                    }
                 )),
                 None => text.push_str(&format!(
                     "{scene}: no automatic placement matched the best grid's MSE\n"
