@@ -112,23 +112,15 @@ enum Held {
     NotStored,
 }
 
-/// [`Held`] per ray (`None`: no true hit, or none that a probe sees). The share of
-/// [`Held::Stored`] among seen hits is the within-one-footprint ceiling of any tracer of
-/// these texels (passed only by chance).
-fn stored_hits(scene: &Scene, bake: &Bake, rays: &[Ray]) -> Vec<Option<Held>> {
-    rays.par_iter()
-        .map(|ray| {
-            let hit = scene.closest_hit(ray, f32::INFINITY)?;
+/// [`Held`] per ray of `hits` (the rays' true hits; `None`: no true hit, or none that a probe
+/// sees). The share of [`Held::Stored`] among seen hits is the within-one-footprint ceiling
+/// of any tracer of these texels (passed only by chance).
+fn stored_hits(scene: &Scene, bake: &Bake, hits: &[Option<probe_scene::Hit>]) -> Vec<Option<Held>> {
+    hits.par_iter()
+        .map(|hit| {
+            let hit = hit.as_ref()?;
             let views: Vec<(ProbeView, f32)> = (0..bake.positions.len())
-                .map(|k| {
-                    let f = footprint(
-                        bake.resolution,
-                        bake.positions[k],
-                        hit.position,
-                        hit.geometric_normal,
-                    );
-                    (probe_view(scene, bake, k, &hit), f)
-                })
+                .map(|k| probe_view(scene, bake, k, hit))
                 .collect();
             let nearest_footprint = views
                 .iter()
@@ -158,7 +150,8 @@ enum ProbeView {
     Stores,
 }
 
-fn probe_view(scene: &Scene, bake: &Bake, k: usize, hit: &probe_scene::Hit) -> ProbeView {
+/// How probe `k` holds `hit`, and its footprint there (infinite where hidden).
+fn probe_view(scene: &Scene, bake: &Bake, k: usize, hit: &probe_scene::Hit) -> (ProbeView, f32) {
     let layout = OctaLayout::new(bake.resolution).unwrap();
     let p = bake.positions[k];
     let v = hit.position - p;
@@ -167,16 +160,16 @@ fn probe_view(scene: &Scene, bake: &Bake, k: usize, hit: &probe_scene::Hit) -> P
         || hit.geometric_normal.dot(v / d).abs() <= 0.1
         || scene.occluded(&Ray::new(p, v), d * (1.0 - 1e-4) - 1e-4)
     {
-        return ProbeView::Hidden;
+        return (ProbeView::Hidden, f32::INFINITY);
     }
     let [ix, iy] = layout.texel_containing(v / d);
     let stored = bake.distance[k * layout.padded_len() + layout.interior_index(ix, iy)];
     let point = p + layout.texel_direction(ix, iy) * stored;
     let f = footprint(bake.resolution, p, hit.position, hit.geometric_normal);
     if (point - hit.position).length() <= f {
-        ProbeView::Stores
+        (ProbeView::Stores, f)
     } else {
-        ProbeView::SeesOnly
+        (ProbeView::SeesOnly, f)
     }
 }
 
@@ -188,7 +181,7 @@ fn probe_view(scene: &Scene, bake: &Bake, k: usize, hit: &probe_scene::Hit) -> P
 fn failure_classes(
     scene: &Scene,
     bake: &Bake,
-    rays: &[Ray],
+    hits: &[Option<probe_scene::Hit>],
     results: &[RayResult],
     stored: &[Option<Held>],
     label: &str,
@@ -196,13 +189,14 @@ fn failure_classes(
     let seen = stored.iter().flatten().count();
     let count = |held: Held| stored.iter().flatten().filter(|&&s| s == held).count();
     let (mut unstored, mut at_start) = (0, 0);
-    // [early, late, unknown, miss] × [hidden, sees only, stores, no probe]
-    let mut classes = [[0usize; 4]; 4];
+    // [early, late, unknown, miss] × [hidden, sees only, stores]
+    let mut classes = [[0usize; 3]; 4];
     let mut unstarted = 0;
-    for ((ray, r), s) in rays.iter().zip(results).zip(stored) {
-        let Some(s) = *s else { continue };
-        let h = scene.closest_hit(ray, f32::INFINITY).unwrap();
-        if r.status == RayStatus::Hit && r.probe.is_some_and(|p| misses_by(bake, r, p, &h) <= 1.0) {
+    for ((hit, r), s) in hits.iter().zip(results).zip(stored) {
+        let (Some(s), Some(h)) = (*s, hit) else {
+            continue;
+        };
+        if r.status == RayStatus::Hit && r.probe.is_some_and(|p| misses_by(bake, r, p, h) <= 1.0) {
             continue;
         }
         match s {
@@ -222,23 +216,23 @@ fn failure_classes(
             RayStatus::Unknown => 2,
             RayStatus::Miss => 3,
         };
-        let view = match r.probe.map(|p| probe_view(scene, bake, p as usize, &h)) {
-            Some(ProbeView::Hidden) => 0,
+        // (Every ray here has a probe: only a field without probes leaves it `None`.)
+        let view = match r.probe.map(|p| probe_view(scene, bake, p as usize, h).0) {
+            Some(ProbeView::Hidden) | None => 0,
             Some(ProbeView::SeesOnly) => 1,
             Some(ProbeView::Stores) => 2,
-            None => 3,
         };
         classes[answer][view] += 1;
         unstarted += usize::from(r.status == RayStatus::Unknown && r.probes_tried == 0);
     }
     let pct = |x: usize| 100.0 * x as f64 / seen.max(1) as f64;
-    let row = |c: [usize; 4]| {
+    let row = |c: [usize; 3]| {
         format!(
             "{:.2} % (answering probe: hidden {:.2} / sees only {:.2} / stores {:.2})",
             pct(c.iter().sum()),
             pct(c[0]),
             pct(c[1]),
-            pct(c[2] + c[3]),
+            pct(c[2]),
         )
     };
     eprintln!(
@@ -276,7 +270,7 @@ fn rows(
     let hits = scene.closest_hits(rays, f32::INFINITY);
     let bvh = t.elapsed();
     let queries = hit_queries(rays, &hits);
-    let stored = stored_hits(scene, &bake, rays);
+    let stored = stored_hits(scene, &bake, &hits);
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     let pct = |x: usize, of: usize| 100.0 * x as f64 / of.max(1) as f64;
     for &name in selectors {
@@ -384,7 +378,7 @@ fn rows(
                 failure_classes(
                     scene,
                     &bake,
-                    rays,
+                    &hits,
                     &hiz.results,
                     &stored,
                     &format!("{label}, {name}, {resolution}²"),
