@@ -818,6 +818,14 @@ pub struct MatchFigure {
     pub grid_spread: f64,
 }
 
+impl MatchFigure {
+    /// Whether the scene's grids lie within [`FLAT_GRID_SPREAD`] of each other: its error
+    /// hardly moves with the probe count, and the report says so beside the ratio.
+    pub fn grids_flat(&self) -> bool {
+        self.grid_spread < FLAT_GRID_SPREAD
+    }
+}
+
 /// [`MatchFigure::grid_spread`] below which the report says the grids' error hardly moves
 /// with the probe count (the leak rooms: 1.02–1.10 over 8 to 63 probes).
 pub const FLAT_GRID_SPREAD: f64 = 1.25;
@@ -1571,7 +1579,7 @@ fn report_markdown(report: &SweepReport) -> String {
     for (scene, figure) in &h.probes_to_match_best_grid {
         match figure {
             Some(f) => {
-                let mark = if f.grid_spread < FLAT_GRID_SPREAD {
+                let mark = if f.grids_flat() {
                     flat = true;
                     " (flat)"
                 } else {
@@ -1896,7 +1904,7 @@ mod tests {
             .clone()
             .unwrap();
         assert!((flat_figure.grid_spread - 1.1).abs() < 1e-9);
-        assert!(flat_figure.grid_spread < FLAT_GRID_SPREAD);
-        assert!(steep_figure.grid_spread >= FLAT_GRID_SPREAD);
+        assert!(flat_figure.grids_flat());
+        assert!(!steep_figure.grids_flat());
     }
 }

@@ -3,7 +3,7 @@
 use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::spec::MemoryArgs;
-use probe_eval::sweep::{EvalConfig, FLAT_GRID_SPREAD, SceneConfig, SweepReport, run_sweep};
+use probe_eval::sweep::{EvalConfig, SceneConfig, SweepReport, run_sweep};
 use serde_json::{Value, json};
 use std::path::PathBuf;
 
@@ -164,7 +164,7 @@ impl Report for EvalSummary {
                     f.grid,
                     f.grid_probes,
                     f.ratio,
-                    if f.grid_spread < FLAT_GRID_SPREAD {
+                    if f.grids_flat() {
                         format!(
                             " (the grids lie within {:.2}x of each other: the error hardly moves with the count)",
                             f.grid_spread
