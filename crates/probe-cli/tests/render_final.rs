@@ -144,6 +144,15 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
         args.extend_from_slice(extra);
         (probes(&args), out)
     };
+    // A refused render: a one-line error naming `needle`, and no file written.
+    let assert_refused = |name: &str, extra: &[&str], needle: &str| {
+        let (output, out) = render(name, extra);
+        assert!(!output.status.success(), "{name} was accepted");
+        let message = stderr(&output);
+        assert!(message.contains(needle), "{message}");
+        assert_eq!(message.trim().lines().count(), 1, "{message}");
+        assert!(!out.exists(), "a refused render wrote {}", out.display());
+    };
     let filtered = ["--filtered", "--roughness", "0.3"];
     let (one, one_path) = render("one", &filtered);
     assert!(one.status.success(), "{}", stderr(&one));
@@ -182,12 +191,7 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
             [&final_image[..], &["--sectors", "9"]].concat(),
         ),
     ] {
-        let (output, out) = render(name, &extra);
-        assert!(!output.status.success(), "{name} was accepted");
-        let message = stderr(&output);
-        assert!(message.contains("sectors"), "{message}");
-        assert_eq!(message.trim().lines().count(), 1, "{message}");
-        assert!(!out.exists(), "a refused render wrote {}", out.display());
+        assert_refused(name, &extra, "sectors");
     }
     // Interleaved sub-lobes: one ray per pixel, a render of its own; refused without
     // --filtered and 2 or 4 sectors, and for the final image.
@@ -216,11 +220,6 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
             [&final_image[..], &["--sectors", "2", "--interleave"]].concat(),
         ),
     ] {
-        let (output, out) = render(name, &extra);
-        assert!(!output.status.success(), "{name} was accepted");
-        let message = stderr(&output);
-        assert!(message.contains("--interleave"), "{message}");
-        assert_eq!(message.trim().lines().count(), 1, "{message}");
-        assert!(!out.exists(), "a refused render wrote {}", out.display());
+        assert_refused(name, &extra, "--interleave");
     }
 }
