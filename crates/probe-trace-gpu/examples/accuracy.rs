@@ -8,7 +8,8 @@
 //! Prints Markdown table rows: per probe set and selection, the light-field tracer with the
 //! distance ranges and 16, 8 or 32 probes per ray, without the nearest-probe extension (the
 //! selection's own candidates, 8 probes per ray: the tracer before it), without the distance
-//! ranges (probe-eval's default, chosen by this table), and the hybrid (BVH hits, radiance
+//! ranges (probe-eval's default, chosen by this table), the same without
+//! `TraceOptions::agreement` (two probes that refuse the same crossing make a hit), and the hybrid (BVH hits, radiance
 //! looked up in the probes). Wrong answers are split into hits before the true one, hits
 //! behind it (the true surface passed) and others
 //! (a miss for a hit, a hit for an escape).
@@ -249,6 +250,9 @@ fn failure_classes(
     );
 }
 
+/// The row of the tracer's defaults (the one the failure classes are printed for).
+const DEFAULT_VARIANT: &str = "16 probes, no distance ranges (probe-eval's default)";
+
 #[allow(clippy::too_many_arguments)]
 fn rows(
     scene: &Scene,
@@ -333,9 +337,17 @@ fn rows(
                 own_only,
             ),
             (
-                "16 probes, no distance ranges (probe-eval's default)",
+                DEFAULT_VARIANT,
                 &field_without_ranges,
                 TraceOptions::default(),
+            ),
+            (
+                "the same without agreement (the default before 2026-12-07)",
+                &field_without_ranges,
+                TraceOptions {
+                    agreement: false,
+                    ..TraceOptions::default()
+                },
             ),
         ] {
             let hiz = tracer.trace(field, &trace_rays, &options).unwrap();
@@ -374,7 +386,7 @@ fn rows(
                 ms(bvh),
                 hiz.timing.wall.as_secs_f64() / bvh.as_secs_f64(),
             );
-            if variant.starts_with("16 probes, no distance ranges") {
+            if variant == DEFAULT_VARIANT {
                 failure_classes(
                     scene,
                     &bake,

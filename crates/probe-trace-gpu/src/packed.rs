@@ -294,12 +294,19 @@ const NEIGHBOURS: [(i32, i32); 8] = [
 pub(crate) const COS_TRUSTED: f32 = 0.25;
 
 /// A crossing in a farther-edge texel is a hit when the texels around it all show it
-/// (`cpu::among_samples`), unless the texel is seen at a cosine below this (about 87°): such a
+/// (`cpu::samples_showing`), unless the texel is seen at a cosine below this (about 87°): such a
 /// texel's cone runs along the surface and its radiance mixes whatever lies along it (on the
 /// Cornell box, the ceiling light seen along the ceiling by a probe 1.4 cm below it, read as
 /// the ceiling's corner 0.6 m away). Chosen by measurement against 0, 0.1 and
 /// [`COS_TRUSTED`]: BENCHMARKS.md, "Crossings beside an edge".
 pub(crate) const COS_AMONG_SAMPLES: f32 = 0.05;
+
+/// A crossing refused beside a farther edge is put to the next probes (`cpu::march::Refusal`) when
+/// the texels showing it hold at least this share of its bilinear weight (it lies nearer the
+/// surface's samples than the edge); a second probe refusing a crossing at the same place
+/// makes it a hit. Chosen by measurement against 0 (every refusal), 0.25, 0.5, 0.6 and 0.9:
+/// BENCHMARKS.md, "Two probes that refuse the same crossing".
+pub(crate) const AGREEMENT_SHOWN_WEIGHT: f32 = 0.75;
 
 /// The sign bit of an `f32`, used as a flag on values that are never negative.
 pub(crate) const SIGN_BIT: u32 = 0x8000_0000;
@@ -1391,7 +1398,8 @@ pub(crate) struct TraceParams {
     /// [`GLOSSY_WIDE_TAN`]: a filtered hit whose cone footprint, seen from a blended probe,
     /// is wider than this `tan` is read by that probe if it sees the hit or the ray's origin.
     pub glossy_wide_tan: f32,
-    pub pad1: u32,
+    /// `TraceOptions::agreement`: two probes that refuse the same crossing make it a hit.
+    pub agreement: u32,
     pub pad2: u32,
 }
 
@@ -1560,7 +1568,7 @@ pub(crate) fn trace_params(
         bounds_max,
         sky_map: field.sky_map,
         glossy_wide_tan: GLOSSY_WIDE_TAN,
-        pad1: 0,
+        agreement: u32::from(options.agreement),
         pad2: 0,
     })
 }

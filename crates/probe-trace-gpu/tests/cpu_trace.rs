@@ -857,3 +857,63 @@ fn misses_read_the_sky_never_a_wall() {
     assert!(misses.len() > 2000, "{}", misses.len());
     assert_eq!(lit, 0);
 }
+
+/// Two probes that each refuse a crossing beside a farther edge at the same place agree on a
+/// hit there (`TraceOptions::agreement`): on the Cornell box it answers rays that ended
+/// UNKNOWN, and the answers it changes lie at the true hit.
+#[test]
+fn probes_that_refuse_the_same_crossing_agree_on_a_hit() {
+    let support::GridCase {
+        scene,
+        grid,
+        bake,
+        rays,
+    } = support::cornell_agreement();
+    let (mut tracer, field) = cpu_grid_field(&bake, grid);
+    let trace_rays = to_trace_rays(&rays);
+    let without = TraceOptions {
+        agreement: false,
+        ..TraceOptions::default()
+    };
+    let off = tracer.trace(&field, &trace_rays, &without).unwrap();
+    let on = tracer
+        .trace(&field, &trace_rays, &TraceOptions::default())
+        .unwrap();
+    let unknown = |r: &[probe_trace_gpu::RayResult]| {
+        r.iter().filter(|r| r.status == RayStatus::Unknown).count()
+    };
+    let (mut changed, mut at_truth) = (0, 0);
+    for ((ray, a), b) in rays.iter().zip(&off.results).zip(&on.results) {
+        if a.status == b.status && (a.position - b.position).length() <= 1e-6 {
+            continue;
+        }
+        changed += 1;
+        let truth = scene.closest_hit(ray, f32::INFINITY);
+        if let (Some(h), RayStatus::Hit, Some(p)) = (truth, b.status, b.probe) {
+            let f = support::footprint(
+                bake.resolution,
+                bake.positions[p as usize],
+                h.position,
+                h.geometric_normal,
+            );
+            at_truth += usize::from((b.position - h.position).length() <= f);
+        }
+    }
+    let shade = albedo_shade(&scene);
+    let a_off = accuracy(&scene, &bake, &rays, &off.results, &shade);
+    let a_on = accuracy(&scene, &bake, &rays, &on.results, &shade);
+    eprintln!(
+        "UNKNOWN {} -> {}, changed {changed} ({at_truth} at the true hit), within one footprint {:.4} -> {:.4}, MSE {:.6} -> {:.6}",
+        unknown(&off.results),
+        unknown(&on.results),
+        a_off.seen_rate(),
+        a_on.seen_rate(),
+        a_off.radiance_mse,
+        a_on.radiance_mse
+    );
+    assert!(changed >= 5, "only {changed} rays changed");
+    assert!(unknown(&on.results) < unknown(&off.results));
+    assert!(at_truth * 10 >= changed * 9, "{at_truth} of {changed}");
+    assert!(a_on.seen_rate() > a_off.seen_rate());
+    assert!(a_on.radiance_mse <= a_off.radiance_mse);
+}

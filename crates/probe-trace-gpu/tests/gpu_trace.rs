@@ -220,6 +220,41 @@ fn gpu_matches_cpu_past_the_bounds_and_through_a_sheet() {
     }
 }
 
+/// Where two probes refuse the same crossing (`TraceOptions::agreement`), the GPU answers the
+/// hit as the CPU twin does, ray by ray; and with agreement off, as the twin does without.
+#[test]
+fn gpu_matches_cpu_where_probes_agree_on_a_refused_crossing() {
+    let Some(mut gpu) = gpu_tracer() else { return };
+    let case = support::cornell_agreement();
+    let selection = ProbeSelection::Grid(case.grid);
+    let rays = to_trace_rays(&case.rays);
+    let pairs = assert_methods_agree(&mut gpu, &case.bake.field(), &selection, &rays, "agreement");
+    let field = case.bake.field();
+    let gpu_field = gpu
+        .upload(&field, &selection, &FieldOptions::default())
+        .unwrap();
+    let mut cpu = CpuTracer::new();
+    let cpu_field = cpu
+        .upload(&field, &selection, &FieldOptions::default())
+        .unwrap();
+    let without = TraceOptions {
+        agreement: false,
+        ..TraceOptions::default()
+    };
+    let g = gpu.trace(&gpu_field, &rays, &without).unwrap();
+    let c = cpu.trace(&cpu_field, &rays, &without).unwrap();
+    assert_agree("without agreement", &g.results, &c.results);
+    // The case exercises agreement: answers differ from those without it.
+    let changed = pairs[0]
+        .0
+        .results
+        .iter()
+        .zip(&g.results)
+        .filter(|(a, b)| a.status != b.status)
+        .count();
+    assert!(changed >= 5, "only {changed} rays answered differently");
+}
+
 /// Buffers are made once and grow only when needed: calls of varying sizes (including more
 /// rays than the first call) keep matching the CPU, and an empty call works.
 #[test]

@@ -6,7 +6,8 @@ use glam::{UVec2, Vec2, Vec3};
 
 use super::profile::{FetchKind, FetchLog};
 use crate::packed::{
-    COS_AMONG_SAMPLES, METHOD_HIZ, PackedField, SIGN_BIT, TraceParams, padded_index,
+    AGREEMENT_SHOWN_WEIGHT, COS_AMONG_SAMPLES, METHOD_HIZ, PackedField, SIGN_BIT, TraceParams,
+    padded_index,
 };
 use crate::surface::{texel_center, texel_surface, unpack_normal};
 
@@ -72,6 +73,23 @@ impl Outcome {
     }
 }
 
+/// A crossing the strict march refused beside a farther edge (the cause of its UNKNOWN), put
+/// to the probes after it: one that refuses a crossing at the same place makes it a hit
+/// (`trace_ray`). Recorded when the texels showing the crossing hold at least
+/// [`crate::packed::AGREEMENT_SHOWN_WEIGHT`] of its bilinear weight, and only for a crossing
+/// after the ray's start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Refusal {
+    /// Where the ray crosses the texel's plane.
+    pub t: f32,
+    /// The plane's thickness along its normal: how near another probe's crossing must lie.
+    pub tolerance: f32,
+    /// The texel.
+    pub cell: UVec2,
+    /// Its packed normal.
+    pub normal: u32,
+}
+
 /// The probe-local view of one ray; `L` records where fetches go (`()` records nothing).
 pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     pub field: &'a PackedField,
@@ -102,6 +120,8 @@ pub(crate) struct ProbeRay<'a, L: FetchLog = ()> {
     pub pass_hidden: bool,
     /// The relaxed march's hit is a guess where the ray went out of sight (not a crossing).
     pub guessed_hidden: bool,
+    /// The crossing the strict march refused where it answered UNKNOWN, if it is put on.
+    pub refused: Option<Refusal>,
 }
 
 /// How one probe's march ends a ray it cannot decide.
@@ -472,7 +492,7 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     /// the thickness measured along the normal (deeper it is hidden), and crossing into it is
     /// a hit (unless the ray starts behind it), unless the surface faces away from the ray
     /// (back-face rejection, UNKNOWN) or the texel has a farther edge and the crossing does
-    /// not lie among samples of its surface (`among_samples`: it may lie beside the edge) or
+    /// not lie among samples of its surface (`samples_showing`: it may lie beside the edge) or
     /// the texel is seen more obliquely than [`COS_AMONG_SAMPLES`] (UNKNOWN).
     /// See [`crate::packed::TexelBounds`].
     pub(crate) fn fine_test(&mut self, cell: UVec2, ta: f32, tb: f32) -> Outcome {
@@ -567,20 +587,26 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         let t = if sa <= 0.0 { ta } else { (ta - sa / k).min(tb) };
-        // A texel with a farther edge: the crossing may lie beside the edge, unless the
-        // texels around it all show it (it lies among samples of the surface) and the texel
-        // is not seen almost edge-on (its radiance then mixes whatever lies along the surface).
-        if !self.relaxed
-            && farther_edge
-            && (surface.cos_incidence < COS_AMONG_SAMPLES
-                || !super::among_samples(
-                    self.field,
-                    self.probe,
-                    self.origin + self.direction * t,
-                    &mut self.fetches,
-                ))
-        {
-            return (Outcome::unknown(ta), FetchKind::FineUnknown);
+        // A texel with a farther edge: the crossing may lie beside the edge, unless the texels
+        // around it all show it (it lies among samples of the surface) and the texel is not
+        // seen almost edge-on (its radiance then mixes whatever lies along the surface).
+        // Refused, it is put to the next probes when most of the texels around it show it.
+        if !self.relaxed && farther_edge {
+            let point = self.origin + self.direction * t;
+            let (among, shown) =
+                super::samples_showing(self.field, self.probe, point, &mut self.fetches);
+            if surface.cos_incidence < COS_AMONG_SAMPLES || !among {
+                let crossing = ta - sa / k;
+                if shown >= AGREEMENT_SHOWN_WEIGHT && crossing > self.t_min {
+                    self.refused = Some(Refusal {
+                        t: crossing,
+                        tolerance: surface.plane_thickness,
+                        cell,
+                        normal: texel[1],
+                    });
+                }
+                return (Outcome::unknown(ta), FetchKind::FineUnknown);
+            }
         }
         (
             Outcome {

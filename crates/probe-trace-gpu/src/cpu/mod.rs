@@ -14,8 +14,8 @@ use probe_index::NO_PROBE;
 use crate::error::{TraceError, UploadError};
 use crate::input::{FieldOptions, Interpolation, IrradianceField, LightField, ProbeSelection};
 use crate::packed::{
-    NEAREST_ROW, PackedField, PackedIrradiance, PackedSelection, TraceParams, diffuse_params,
-    padded_index, prepare_points, prepare_rays, trace_params,
+    AGREEMENT_SHOWN_WEIGHT, NEAREST_ROW, PackedField, PackedIrradiance, PackedSelection,
+    TraceParams, diffuse_params, padded_index, prepare_points, prepare_rays, trace_params,
 };
 use crate::ray::{
     DiffuseOptions, DiffuseResult, RayRecord, RayResult, ShadingPoint, SurfaceQuery, Timing,
@@ -275,6 +275,8 @@ struct ProbeAnswer {
     end_position: f32,
     /// A relaxed march's HIT is a guess where the ray went out of the probe's sight.
     guessed_hidden: bool,
+    /// The crossing a strict march refused where it answered UNKNOWN, if put on.
+    refused: Option<march::Refusal>,
 }
 
 /// Traces the ray through one probe from `t_start` (seed 003 Alg. 3 on the probe's segments).
@@ -302,6 +304,7 @@ fn trace_probe<L: FetchLog>(
         fetches: 0,
         end_position: 0.0,
         guessed_hidden: false,
+        refused: None,
     };
     if origin.length() >= sky {
         return answer;
@@ -329,6 +332,7 @@ fn trace_probe<L: FetchLog>(
         relaxed: march != March::Strict,
         pass_hidden: march == March::PastHidden,
         guessed_hidden: false,
+        refused: None,
     };
     for segment in &segments[..count] {
         let outcome = probe_ray.march_segment(segment);
@@ -341,6 +345,7 @@ fn trace_probe<L: FetchLog>(
                 fetches: 0,
                 end_position: 0.0,
                 guessed_hidden: false,
+                refused: probe_ray.refused.filter(|_| outcome.code == UNKNOWN),
             };
             break;
         }
@@ -463,26 +468,40 @@ fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3) -> bool {
     TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
 }
 
-/// Whether the surface point `v` (relative to `probe`) lies among samples of its surface:
-/// every texel around its direction with a bilinear weight shows it ([`texel_shows`]; one
-/// fetch each, stopping at the first that does not). A crossing in a texel with a farther
-/// edge is then on the surface, not beside the edge: the surface is known at the texel
-/// centres around it, and the tracer trusts a plane between samples that agree, as it does
-/// inside every texel (`gpu/trace.wgsl`'s `among_samples` step for step).
-pub(crate) fn among_samples(field: &PackedField, probe: u32, v: Vec3, fetches: &mut u32) -> bool {
+/// How the texels around the direction of the surface point `v` (relative to `probe`) show
+/// it ([`texel_shows`]; one fetch each): whether every texel with a bilinear weight does (the
+/// point lies **among samples** of its surface), and the bilinear weight of those that do.
+/// A crossing in a texel with a farther edge is a hit only among samples: the surface is known
+/// at the texel centres around it, and the tracer trusts a plane between samples that agree,
+/// as it does inside every texel. Stops once the weight shown can no longer reach
+/// [`AGREEMENT_SHOWN_WEIGHT`] (the weight it returns is then below it too).
+/// `gpu/trace.wgsl`'s `samples_showing` step for step.
+pub(crate) fn samples_showing(
+    field: &PackedField,
+    probe: u32,
+    v: Vec3,
+    fetches: &mut u32,
+) -> (bool, f32) {
     let Some(texels) = bilinear_texels(field.resolution, v) else {
-        return false;
+        return (false, 0.0);
     };
+    let (mut all, mut shown, mut hidden) = (true, 0.0f32, 0.0f32);
     for (texel, w) in texels {
         if w <= 0.0 {
             continue;
         }
         *fetches += 1;
-        if !texel_shows(field, probe, texel, v) {
-            return false;
+        if texel_shows(field, probe, texel, v) {
+            shown += w;
+        } else {
+            all = false;
+            hidden += w;
+            if hidden > 1.0 - AGREEMENT_SHOWN_WEIGHT {
+                break;
+            }
         }
     }
-    true
+    (all, shown)
 }
 
 /// The radiance `probe` holds towards the point `v` (relative to the probe) or, with `sky`,
@@ -1324,6 +1343,8 @@ pub(crate) fn trace_ray<O: RayObserver>(
     let mut unstarted = false;
     let (mut next, mut tried, mut fetches) = (0u32, 0u32, 0u32);
     let mut fallback = NO_PROBE;
+    // The last crossing a probe refused and put on: (probe, t, plane thickness).
+    let mut refusal: Option<(u32, f32, f32)> = None;
     let mut record = RayRecord {
         status: UNKNOWN,
         probe: NO_PROBE,
@@ -1493,6 +1514,25 @@ pub(crate) fn trace_ray<O: RayObserver>(
                 &mut fetches,
             );
             break;
+        }
+        // Two probes that each refused a crossing beside a farther edge at the same place
+        // (within both planes' thickness) agree on a surface there: a hit at their mean.
+        // Each texel grid puts its edges elsewhere, so beside one probe's edge another's
+        // texels may show the surface; only a refusal most of whose texels show it is put on
+        // (BENCHMARKS.md, "Two probes that refuse the same crossing").
+        if let Some(crossing) = answer.refused.filter(|_| params.agreement != 0) {
+            match refusal {
+                Some((other, t0, tolerance))
+                    if other != probe
+                        && (t0 - crossing.t).abs() < tolerance.min(crossing.tolerance) =>
+                {
+                    answer.code = HIT;
+                    answer.t = 0.5 * (t0 + crossing.t);
+                    answer.cell = crossing.cell;
+                    answer.normal = crossing.normal;
+                }
+                _ => refusal = Some((probe, crossing.t, crossing.tolerance)),
+            }
         }
         observer.probe_done(answer.code, answer.t > t, answer.end_position, tried - 1);
         if answer.code == UNKNOWN

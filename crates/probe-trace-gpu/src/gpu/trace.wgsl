@@ -14,6 +14,8 @@ const SVO_PACKED_BIT: u32 = 0x40000000u;
 const NO_EXIT: f32 = 4.0;
 // src/packed.rs COS_AMONG_SAMPLES.
 const COS_AMONG_SAMPLES: f32 = 0.05;
+// src/packed.rs AGREEMENT_SHOWN_WEIGHT.
+const AGREEMENT_SHOWN_WEIGHT: f32 = 0.75;
 const SIGN_BIT: u32 = 0x80000000u;
 // f32::MAX: "no bound" (src/cpu/mod.rs bounds_exit).
 const F32_MAX: f32 = 3.40282347e38;
@@ -70,7 +72,7 @@ struct TraceParams {
     bounds_max: vec4<f32>,
     sky_map: u32,
     glossy_wide_tan: f32,
-    pad1: u32,
+    agreement: u32,
     pad2: u32,
 }
 
@@ -129,6 +131,16 @@ var<private> pass_hidden: bool;
 // The relaxed march's hit is a guess where the ray went out of sight
 // (src/cpu/march.rs ProbeRay::guessed_hidden).
 var<private> guessed_hidden: bool;
+// The crossing the strict march refused beside a farther edge where it answered UNKNOWN, if
+// put on (src/cpu/march.rs Refusal).
+struct Refusal {
+    t: f32,
+    tolerance: f32,
+    cell: vec2<u32>,
+    normal: u32,
+}
+var<private> refused: Refusal;
+var<private> has_refused: bool;
 
 // src/cpu/march.rs March.
 const MARCH_STRICT: u32 = 0u;
@@ -539,9 +551,18 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
         t = min(ta - sa / k, tb);
     }
     // A texel with a farther edge: the crossing may lie beside the edge, unless the texels
-    // around it all show it and the texel is not seen almost edge-on (src/cpu/march.rs).
-    if (farther_edge && (surface.cos_incidence < COS_AMONG_SAMPLES || !among_samples(cur_probe, ray_o + ray_d * t))) {
-        return outcome_unknown(ta);
+    // around it all show it and the texel is not seen almost edge-on; refused, it is put to
+    // the next probes when most of the texels around it show it (src/cpu/march.rs).
+    if (farther_edge) {
+        let shown = samples_showing(cur_probe, ray_o + ray_d * t);
+        if (surface.cos_incidence < COS_AMONG_SAMPLES || shown.x == 0.0) {
+            let crossing = ta - sa / k;
+            if (shown.y >= AGREEMENT_SHOWN_WEIGHT && crossing > ray_t_min) {
+                refused = Refusal(crossing, surface.plane_thickness, cell, texel.y);
+                has_refused = true;
+            }
+            return outcome_unknown(ta);
+        }
     }
     return Outcome(HIT, t, cell, texel.y);
 }
@@ -696,6 +717,7 @@ fn trace_probe(probe: u32, ray: TraceRay, t_start: f32, march: u32) -> ProbeAnsw
     relaxed = march != MARCH_STRICT;
     pass_hidden = march == MARCH_PAST_HIDDEN;
     guessed_hidden = false;
+    has_refused = false;
     ray_o = ray.origin - positions[probe].xyz;
     ray_d = ray.direction;
     ray_t_min = ray.t_min;
@@ -1021,28 +1043,39 @@ fn bilinear_weight(k: u32, frac: vec2<f32>) -> f32 {
     return wx * wy;
 }
 
-// Whether the surface point v (relative to `probe`) lies among samples of its surface: every
-// texel around its direction with a bilinear weight shows it, one fetch each, stopping at the
-// first that does not (src/cpu/mod.rs among_samples).
-fn among_samples(probe: u32, v: vec3<f32>) -> bool {
+// How the texels around the direction of surface point v (relative to `probe`) show it: x is
+// 1 when every texel with a bilinear weight does (it lies among samples of its surface), y
+// the bilinear weight of those that do, one fetch each, stopping once y can no longer reach
+// AGREEMENT_SHOWN_WEIGHT (src/cpu/mod.rs samples_showing).
+fn samples_showing(probe: u32, v: vec3<f32>) -> vec2<f32> {
     let n = params.resolution;
     if (length(v) <= 0.0) {
-        return false;
+        return vec2<f32>(0.0);
     }
     let f = bilinear_coordinate(v, n);
     let base = floor(f);
     let frac = f - base;
+    var all = 1.0;
+    var shown = 0.0;
+    var hidden = 0.0;
     for (var k = 0u; k < 4u; k++) {
-        if (bilinear_weight(k, frac) <= 0.0) {
+        let w = bilinear_weight(k, frac);
+        if (w <= 0.0) {
             continue;
         }
         let texel = wrap_texel(i32(base.x) + i32(k & 1u), i32(base.y) + i32(k >> 1u), n);
         fetches += 1u;
-        if (!texel_shows(probe, texel, v)) {
-            return false;
+        if (texel_shows(probe, texel, v)) {
+            shown += w;
+        } else {
+            all = 0.0;
+            hidden += w;
+            if (hidden > 1.0 - AGREEMENT_SHOWN_WEIGHT) {
+                break;
+            }
         }
     }
-    return true;
+    return vec2<f32>(all, shown);
 }
 
 // The depth-aware bilinear radiance of `probe` towards point v (relative to it) or, with
@@ -1605,6 +1638,10 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
     var next = 0u;
     var tried = 0u;
     var fallback = NO_PROBE;
+    // The last crossing a probe refused and put on (src/cpu/mod.rs trace_ray).
+    var refusal_probe = NO_PROBE;
+    var refusal_t = 0.0;
+    var refusal_tolerance = 0.0;
     var blend = false;
     var blend_hit = false;
     var blend_t = 0.0;
@@ -1752,6 +1789,17 @@ fn trace_ray(ray: TraceRay) -> RayRecord {
             blend_t = answer.t;
             blend = true;
             break;
+        }
+        // Two probes that each refused a crossing beside a farther edge at the same place
+        // agree on a surface there: a hit at their mean (src/cpu/mod.rs trace_ray).
+        if (answer.code == UNKNOWN && has_refused && params.agreement != 0u) {
+            if (refusal_probe != NO_PROBE && refusal_probe != probe && abs(refusal_t - refused.t) < min(refusal_tolerance, refused.tolerance)) {
+                answer = ProbeAnswer(HIT, 0.5 * (refusal_t + refused.t), refused.cell, refused.normal);
+            } else {
+                refusal_probe = probe;
+                refusal_t = refused.t;
+                refusal_tolerance = refused.tolerance;
+            }
         }
         if (answer.code == UNKNOWN && answer.t >= t_exit && leaves_into_sky(probe, origin + direction * t_exit)) {
             if (params.glossy_levels > 0u) {

@@ -688,6 +688,25 @@ pub fn cornell_reflections() -> GridCase {
     }
 }
 
+/// The built-in Cornell box's reflection rays from its default view (128×96) through the
+/// accuracy example's 27 probes at 128²: about 30 of its rays end UNKNOWN where two probes
+/// refuse the same crossing beside their edges (`TraceOptions::agreement`).
+#[allow(dead_code, reason = "not every test uses every case")]
+pub fn cornell_agreement() -> GridCase {
+    let scene = Scene::open("builtin:cornell").expect("a built-in scene");
+    let grid =
+        probe_index::ProbeGrid::new(Vec3::splat(0.06), Vec3::new(0.215, 0.215, 0.22), [3, 3, 3])
+            .expect("a valid grid");
+    let bake = mini_capture(&scene, &grid.positions(), 128, 50.0, &albedo_shade(&scene));
+    let rays = reflection_rays(&scene, &camera_rays(&scene, 128, 96));
+    GridCase {
+        scene,
+        grid,
+        bake,
+        rays,
+    }
+}
+
 /// The shared `TwoSidedPlane.glb` (a double-sided sheet 2 m across at y = 0) between 2×2×2
 /// probes at ±0.5 m, 32², and 4,000 rays from above and below towards it (as the failure
 /// suite's `two-sided-plane`): every ray meets the sheet.
