@@ -490,7 +490,8 @@ impl<L: FetchLog> ProbeRay<'_, L> {
     /// behind it by more than the thickness is hidden, staying in front passes, moving out of
     /// the thickness layer passes (a ray leaving the surface it starts on) if it lies within
     /// the thickness measured along the normal (deeper it is hidden), and crossing into it is
-    /// a hit (unless the ray starts behind it), unless the surface faces away from the ray
+    /// a hit (unless the ray starts behind it: at its first texel a ray leaving a neighbouring
+    /// face passes, later it is handed on, UNKNOWN), unless the surface faces away from the ray
     /// (back-face rejection, UNKNOWN) or the texel has a farther edge and the crossing does
     /// not lie among samples of its surface (`samples_showing`: it may lie beside the edge) or
     /// the texel is seen more obliquely than [`COS_AMONG_SAMPLES`] (UNKNOWN).
@@ -562,6 +563,20 @@ impl<L: FetchLog> ProbeRay<'_, L> {
         }
         if sa >= 0.0 && sb >= 0.0 {
             return (Outcome::CONTINUE, FetchKind::FinePlane);
+        }
+        if !self.relaxed
+            && k < 0.0
+            && sa < 0.0
+            && ta > self.t_min
+            && sa - (ta - self.t_min) * k < 0.0
+        {
+            // Within the thickness behind the plane, moving deeper, and the ray's origin lies
+            // behind it too: the ray has been behind this plane since it started (on a
+            // neighbouring face at a convex edge, or under the surface the probe saw) and never
+            // crossed it, so it cannot hit it; nor does the probe see where it is. Hand it on
+            // (answered as a hit here, it was a hit a few centimetres after the ray left its
+            // surface: BENCHMARKS.md, "Rays that start behind a plane").
+            return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
             // Within the thickness behind the plane and moving out of it: the ray leaves the

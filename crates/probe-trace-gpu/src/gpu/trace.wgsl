@@ -536,6 +536,11 @@ fn fine_test(cell: vec2<u32>, ta: f32, tb: f32) -> Outcome {
     if (sa >= 0.0 && sb >= 0.0) {
         return outcome_continue();
     }
+    // The ray has been behind this plane since it started (its origin lies behind it too):
+    // it never crossed it; hand it on (src/cpu/march.rs).
+    if (k < 0.0 && sa < 0.0 && ta > ray_t_min && sa - (ta - ray_t_min) * k < 0.0) {
+        return outcome_unknown(ta);
+    }
     if (k >= 0.0 || (sa < 0.0 && ta == ray_t_min)) {
         // Only a ray that starts within the thickness leaves the surface (src/cpu/march.rs).
         if (sa - (ta - ray_t_min) * k < -surface.plane_thickness) {
