@@ -48,23 +48,34 @@ fn sponza_departures(
     (scene, rays, results)
 }
 
+/// The rays answered with a hit within `within` of their start whose true hit lies farther
+/// than `truth_beyond` (or nowhere).
+fn hits_near_the_start(
+    scene: &Scene,
+    rays: &[Ray],
+    results: &[probe_trace_gpu::RayResult],
+    within: f32,
+    truth_beyond: f32,
+) -> usize {
+    rays.iter()
+        .zip(results)
+        .filter(|(ray, r)| {
+            r.status == RayStatus::Hit
+                && r.t < within
+                && scene
+                    .closest_hit(ray, f32::INFINITY)
+                    .is_none_or(|truth| truth.t > truth_beyond)
+        })
+        .count()
+}
+
 #[test]
 fn rays_leaving_sponzas_surfaces_do_not_hit_at_their_start() {
     // Rays along the normal of each primary hit, leaving the surface.
     let (scene, rays, results) = sponza_departures(|_, hit, geometric, shading| {
         (shading.dot(geometric) > 0.0).then(|| Ray::from_surface(hit.position, geometric, shading))
     });
-    let self_hits = rays
-        .iter()
-        .zip(&results)
-        .filter(|(ray, r)| {
-            r.status == RayStatus::Hit
-                && r.t < 0.05
-                && scene
-                    .closest_hit(ray, f32::INFINITY)
-                    .is_none_or(|truth| truth.t > 0.2)
-        })
-        .count();
+    let self_hits = hits_near_the_start(&scene, &rays, &results, 0.05, 0.2);
     let share = self_hits as f64 / rays.len() as f64;
     eprintln!(
         "{self_hits} self-hits of {} rays ({:.3} %)",
@@ -89,17 +100,7 @@ fn reflections_that_start_behind_a_plane_do_not_hit_it() {
         let r = d - 2.0 * d.dot(geometric) * geometric;
         Some(Ray::from_surface(hit.position, geometric, r))
     });
-    let early = rays
-        .iter()
-        .zip(&results)
-        .filter(|(ray, r)| {
-            r.status == RayStatus::Hit
-                && r.t < 0.1
-                && scene
-                    .closest_hit(ray, f32::INFINITY)
-                    .is_none_or(|truth| truth.t > 0.5)
-        })
-        .count();
+    let early = hits_near_the_start(&scene, &rays, &results, 0.1, 0.5);
     eprintln!(
         "{early} hits within 0.1 m of the start of {} reflection rays",
         rays.len()

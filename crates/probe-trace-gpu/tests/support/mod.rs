@@ -671,15 +671,19 @@ pub struct GridCase {
     pub rays: Vec<Ray>,
 }
 
-/// The built-in Cornell box's reflection rays from its default view (96×72) through 27
-/// probes at 32², with the scene's bounds: many rays leave through the open front.
-pub fn cornell_reflections() -> GridCase {
+/// The built-in Cornell box's reflection rays from its default view (`width`×`height`)
+/// through a 3×3×3 grid of probes from `first` at `spacing`, baked at `resolution`².
+fn cornell_case(first: Vec3, spacing: Vec3, resolution: u32, width: u32, height: u32) -> GridCase {
     let scene = Scene::open("builtin:cornell").expect("a built-in scene");
-    let grid =
-        probe_index::ProbeGrid::new(Vec3::splat(0.07), Vec3::new(0.205, 0.2, 0.21), [3, 3, 3])
-            .expect("a valid grid");
-    let bake = mini_capture(&scene, &grid.positions(), 32, 50.0, &albedo_shade(&scene));
-    let rays = reflection_rays(&scene, &camera_rays(&scene, 96, 72));
+    let grid = probe_index::ProbeGrid::new(first, spacing, [3, 3, 3]).expect("a valid grid");
+    let bake = mini_capture(
+        &scene,
+        &grid.positions(),
+        resolution,
+        50.0,
+        &albedo_shade(&scene),
+    );
+    let rays = reflection_rays(&scene, &camera_rays(&scene, width, height));
     GridCase {
         scene,
         grid,
@@ -688,23 +692,23 @@ pub fn cornell_reflections() -> GridCase {
     }
 }
 
+/// The built-in Cornell box's reflection rays from its default view (96×72) through 27
+/// probes at 32², with the scene's bounds: many rays leave through the open front.
+pub fn cornell_reflections() -> GridCase {
+    cornell_case(Vec3::splat(0.07), Vec3::new(0.205, 0.2, 0.21), 32, 96, 72)
+}
+
 /// The built-in Cornell box's reflection rays from its default view (128×96) through the
 /// accuracy example's 27 probes at 128²: about 30 of its rays end UNKNOWN where two probes
 /// refuse the same crossing beside their edges (`TraceOptions::agreement`).
-#[allow(dead_code, reason = "not every test uses every case")]
 pub fn cornell_agreement() -> GridCase {
-    let scene = Scene::open("builtin:cornell").expect("a built-in scene");
-    let grid =
-        probe_index::ProbeGrid::new(Vec3::splat(0.06), Vec3::new(0.215, 0.215, 0.22), [3, 3, 3])
-            .expect("a valid grid");
-    let bake = mini_capture(&scene, &grid.positions(), 128, 50.0, &albedo_shade(&scene));
-    let rays = reflection_rays(&scene, &camera_rays(&scene, 128, 96));
-    GridCase {
-        scene,
-        grid,
-        bake,
-        rays,
-    }
+    cornell_case(
+        Vec3::splat(0.06),
+        Vec3::new(0.215, 0.215, 0.22),
+        128,
+        128,
+        96,
+    )
 }
 
 /// The shared `TwoSidedPlane.glb` (a double-sided sheet 2 m across at y = 0) between 2×2×2
