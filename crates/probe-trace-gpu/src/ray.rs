@@ -283,9 +283,9 @@ pub struct TraceOptions {
     /// edge), but when most of the texels around it show it, it is put to the probes after
     /// it, and one that refuses a crossing at the same place (within both planes' thickness)
     /// makes it a hit there. Each texel grid puts its edges elsewhere. Default true
-    /// (measured: within one footprint +0.1 to +0.4 points, UNKNOWN −0.1 to −0.3, radiance
-    /// error level or lower on every scene of the accuracy example; BENCHMARKS.md, "Two
-    /// probes that refuse the same crossing").
+    /// (measured on the accuracy example's default rows: within one footprint +0.1 to +0.5
+    /// points, UNKNOWN −0.04 to −0.4, radiance error level or lower on nine of ten rows and
+    /// +1.7 % on the tenth; BENCHMARKS.md, "Two probes that refuse the same crossing").
     pub agreement: bool,
 }
 
