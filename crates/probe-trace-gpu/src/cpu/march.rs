@@ -575,7 +575,8 @@ impl<L: FetchLog> ProbeRay<'_, L> {
             // neighbouring face at a convex edge, or under the surface the probe saw) and never
             // crossed it, so it cannot hit it; nor does the probe see where it is. Hand it on
             // (answered as a hit here, it was a hit a few centimetres after the ray left its
-            // surface: BENCHMARKS.md, "Rays that start behind a plane").
+            // surface: BENCHMARKS.md, "Two probes that refuse the same crossing; rays that start
+            // behind a plane").
             return (Outcome::unknown(ta), FetchKind::FineUnknown);
         }
         if k >= 0.0 || (sa < 0.0 && ta == self.t_min) {
