@@ -9,10 +9,10 @@
 //! distance ranges and 16, 8 or 32 probes per ray, without the nearest-probe extension (the
 //! selection's own candidates, 8 probes per ray: the tracer before it), without the distance
 //! ranges (probe-eval's default, chosen by this table), the same without
-//! `TraceOptions::agreement` (two probes that refuse the same crossing make a hit), and the hybrid (BVH hits, radiance
-//! looked up in the probes). Wrong answers are split into hits before the true one, hits
-//! behind it (the true surface passed) and others
-//! (a miss for a hit, a hit for an escape).
+//! `TraceOptions::agreement` (two probes that refuse the same crossing make a hit), and the
+//! hybrid (BVH hits, radiance looked up in the probes). Wrong answers are split into hits
+//! before the true one, hits behind it (the true surface passed) and others (a miss for a
+//! hit, a hit for an escape).
 //!
 //! ```text
 //! cargo run --release -p probe-trace-gpu --example accuracy -- [cornell|sponza|sponza-region|breakfast|godot|all] [PROBES.json]
@@ -59,20 +59,18 @@ fn header() {
 
 /// Wrong answers split by where the answer lies against the truth: a hit before the true one
 /// (invented), after it (the true surface passed), or another mismatch (a miss for a hit, a
-/// hit for an escape).
+/// hit for an escape). `hits`: the rays' true hits, as `rows` traced them once.
 fn wrong_split(
-    scene: &Scene,
     bake: &Bake,
-    rays: &[Ray],
+    hits: &[Option<probe_scene::Hit>],
     results: &[RayResult],
 ) -> (usize, usize, usize) {
     let (mut early, mut late, mut other) = (0, 0, 0);
-    for (ray, r) in rays.iter().zip(results) {
+    for (truth, r) in hits.iter().zip(results) {
         if r.status == RayStatus::Unknown {
             continue;
         }
-        let truth = scene.closest_hit(ray, f32::INFINITY);
-        match (&truth, r.status, r.probe) {
+        match (truth, r.status, r.probe) {
             (Some(h), RayStatus::Hit, Some(p)) if misses_by(bake, r, p, h) > 2.0 => {
                 if r.t < h.t {
                     early += 1;
@@ -362,7 +360,7 @@ fn rows(
                 )
                 .unwrap();
             let a = accuracy(scene, &bake, rays, &hiz.results, &shade);
-            let (early, late, other) = wrong_split(scene, &bake, rays, &hiz.results);
+            let (early, late, other) = wrong_split(&bake, &hits, &hiz.results);
             let s_hiz = TraceSummary::of(&hiz.results);
             let s_two = TraceSummary::of(&two.results);
             println!(
