@@ -20,7 +20,7 @@
 //!
 //! With a `probes/1` file (`probes place --out`), that probe set is traced instead of the
 //! scene's grids (Voronoi and octree selection). `ACCURACY_RESOLUTION=N` bakes the real
-//! scenes' probes at N² instead of 256².
+//! scenes' probes, and a file's probes on the Cornell box, at N² instead of 256².
 //!
 //! On stderr, for each probe set's default row: the **ceiling** (the share of seen hits that
 //! some probe that sees them stores in the texel of their direction, which no tracer of
@@ -469,7 +469,7 @@ fn cornell(file: Option<&String>) {
             "cornell",
             &positions,
             None,
-            256,
+            real_scene_resolution(),
             50.0,
             &rays,
             &["svo", "voronoi"],

@@ -113,6 +113,59 @@ pub(crate) fn texel_surface(
     }
 }
 
+/// The part of a texel's surface model that the trace reads at every fetch ([`TexelPlane`]):
+/// the plane's visible normal, its thickness (radial and along the normal) and the
+/// incidence, without the `near`/`far` extents the bake's bounds need. Each field equals
+/// [`texel_surface`]'s bit for bit; it skips the extents' divisions and, where the texel's
+/// angular radius is at most 0.05 (every texel from 128² up), the sine that only bounds `cos γ`
+/// there (`2 sin β ≤ 2β ≤ 0.1 = COS_MIN`). The CPU twin's fetches take this form: a third of
+/// their arithmetic went to the extents and the sine (BENCHMARKS.md, "The CPU twin's fetches").
+///
+/// [`TexelPlane`]: crate::cpu
+#[inline]
+pub(crate) fn texel_plane(
+    resolution: u32,
+    center: Vec3,
+    distance: f32,
+    normal: Vec3,
+    thickness_scale: f32,
+) -> TexelPlaneModel {
+    let l1 = center.x.abs() + center.y.abs() + center.z.abs();
+    let beta = K_BETA * l1 * l1.sqrt() / resolution as f32;
+    let grazing_floor = if beta <= 0.05 {
+        COS_MIN
+    } else {
+        COS_MIN.max(2.0 * beta.sin())
+    };
+    let (n, c) = if normal == Vec3::ZERO {
+        (-center, -1.0)
+    } else {
+        (normal, normal.dot(center))
+    };
+    let visible_normal = if c <= 0.0 { n } else { -n };
+    let cos_g = c.abs().max(grazing_floor).min(1.0);
+    let thickness = thickness_scale * distance * beta / cos_g;
+    TexelPlaneModel {
+        thickness,
+        plane_thickness: thickness * cos_g,
+        visible_normal,
+        cos_incidence: c.abs(),
+    }
+}
+
+/// [`texel_plane`]'s answer: [`TexelSurface`] less `near` and `far`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TexelPlaneModel {
+    /// As [`TexelSurface::thickness`].
+    pub thickness: f32,
+    /// As [`TexelSurface::plane_thickness`].
+    pub plane_thickness: f32,
+    /// As [`TexelSurface::visible_normal`].
+    pub visible_normal: Vec3,
+    /// As [`TexelSurface::cos_incidence`].
+    pub cos_incidence: f32,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -148,6 +201,36 @@ mod tests {
             }
             assert!(worst < K_BETA, "n={n}: ratio {worst}");
             assert!(worst > 2.0, "n={n}: the bound is loose ({worst})");
+        }
+    }
+
+    proptest::proptest! {
+        /// The trace's plane model is the full surface model's, bit for bit, at every
+        /// resolution the maps take (below 128² the sine still bounds `cos γ`), for stored and
+        /// unknown normals at any incidence.
+        #[test]
+        fn the_plane_model_is_the_surface_models(
+            log2_n in 2u32..10,
+            fx in 0.0f32..1.0,
+            fy in 0.0f32..1.0,
+            nx in -1.0f32..1.0,
+            ny in -1.0f32..1.0,
+            nz in -1.0f32..1.0,
+            distance in 0.001f32..100.0,
+            thickness_scale in 0.0f32..4.0,
+            unknown in proptest::bool::weighted(0.1),
+        ) {
+            let n = 1u32 << log2_n;
+            let (ix, iy) = (((fx * n as f32) as u32).min(n - 1), ((fy * n as f32) as u32).min(n - 1));
+            let center = decode(texel_center(n, ix, iy));
+            let raw = Vec3::new(nx, ny, nz);
+            let normal = if unknown || raw.length() < 1e-3 { Vec3::ZERO } else { raw.normalize() };
+            let full = texel_surface(n, center, distance, normal, thickness_scale);
+            let plane = texel_plane(n, center, distance, normal, thickness_scale);
+            proptest::prop_assert_eq!(plane.thickness.to_bits(), full.thickness.to_bits());
+            proptest::prop_assert_eq!(plane.plane_thickness.to_bits(), full.plane_thickness.to_bits());
+            proptest::prop_assert_eq!(plane.visible_normal, full.visible_normal);
+            proptest::prop_assert_eq!(plane.cos_incidence.to_bits(), full.cos_incidence.to_bits());
         }
     }
 

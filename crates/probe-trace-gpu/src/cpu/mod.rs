@@ -333,6 +333,7 @@ fn trace_probe<L: FetchLog>(
         pass_hidden: march == March::PastHidden,
         guessed_hidden: false,
         refused: None,
+        last_radius: (f32::NAN, 0.0),
     };
     for segment in &segments[..count] {
         let outcome = probe_ray.march_segment(segment);
@@ -422,7 +423,7 @@ struct TexelPlane {
     /// Where the texel's centre ray meets the stored surface, relative to the probe.
     point: Vec3,
     /// The texel's plane with its thickness.
-    surface: crate::surface::TexelSurface,
+    surface: crate::surface::TexelPlaneModel,
 }
 
 impl TexelPlane {
@@ -440,7 +441,7 @@ impl TexelPlane {
             record,
             distance,
             point: center * distance,
-            surface: crate::surface::texel_surface(
+            surface: crate::surface::texel_plane(
                 n,
                 center,
                 distance,
