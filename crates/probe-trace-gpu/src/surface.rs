@@ -113,15 +113,13 @@ pub(crate) fn texel_surface(
     }
 }
 
-/// The part of a texel's surface model that the trace reads at every fetch ([`TexelPlane`]):
-/// the plane's visible normal, its thickness (radial and along the normal) and the
-/// incidence, without the `near`/`far` extents the bake's bounds need. Each field equals
-/// [`texel_surface`]'s bit for bit; it skips the extents' divisions and, where the texel's
-/// angular radius is at most 0.05 (every texel from 128² up), the sine that only bounds `cos γ`
-/// there (`2 sin β ≤ 2β ≤ 0.1 = COS_MIN`). The CPU twin's fetches take this form: a third of
-/// their arithmetic went to the extents and the sine (BENCHMARKS.md, "The CPU twin's fetches").
-///
-/// [`TexelPlane`]: crate::cpu
+/// The part of a texel's surface model that the trace reads at every fetch (the CPU twin's
+/// `TexelPlane` and fine test): the plane's visible normal, its thickness (radial and along
+/// the normal) and the incidence, without the `near`/`far` extents the bake's bounds need.
+/// Each field equals [`texel_surface`]'s bit for bit; it skips the extents' divisions and,
+/// where the texel's angular radius is at most 0.05 (every texel from 128² up), the sine that
+/// only bounds `cos γ` there (`2 sin β ≤ 2β ≤ 0.1 = COS_MIN`). With the extents and the sine,
+/// the CPU twin took 8 % longer (BENCHMARKS.md, "The CPU twin's fetches").
 #[inline]
 pub(crate) fn texel_plane(
     resolution: u32,
