@@ -1,5 +1,6 @@
 //! `probes demo`: the whole system on the built-in Cornell box, no files needed — place probes
-//! (SDF skeleton refined by Gibbs sampling, against seed 000's 2×2×2 grid), bake them, index
+//! (SDF skeleton refined by Gibbs sampling; the error-driven set for the demo's own camera at
+//! the grid's count, issue 12's "where viewers go"; seed 000's 2×2×2 grid), bake them, index
 //! them, trace the one-bounce glossy component through them with the GPU tracer (both
 //! single-probe algorithms), render the path-traced reference, and tabulate probes, bake time,
 //! trace time, texel fetches per ray, MSE, PSNR and FLIP, writing images and the table to a
@@ -61,7 +62,7 @@ pub struct DemoOptions {
     pub reference_noise_fraction: f64,
     /// The most shading samples per reference hit.
     pub reference_max_samples: u32,
-    /// A region of interest both placements stay in (`None`: the whole box).
+    /// A region of interest every placement stays in (`None`: the whole box).
     pub region: Option<probe_place::region::Region>,
     /// Samples per pixel of each part of the path-traced final image.
     pub final_reference_samples: u32,
@@ -70,14 +71,19 @@ pub struct DemoOptions {
 }
 
 impl DemoOptions {
-    /// The defaults: 128² probes, 4 samples per texel, a 256² image, 30 Gibbs iterations, a
+    /// The defaults: 128² probes, bakes sampled adaptively (8 to 512 samples per texel) to a
+    /// quarter of [`Sampling::DEFAULT_NOISE_TARGET`], a 256² image, 30 Gibbs iterations, a
     /// reference refined to 5 % of the smallest error with at most 2048 samples per hit.
+    ///
+    /// At the default target the bakes' own noise in the glossy images was 9–38 % of their
+    /// error (BENCHMARKS.md, "The demo: converged bakes and a set placed for its camera"); at
+    /// a quarter it is 2–11 %, for 3–3.5× the bake time (a few seconds here).
     pub fn new(out: impl Into<PathBuf>) -> DemoOptions {
         DemoOptions {
             out: out.into(),
             require_gpu: false,
             resolution: 128,
-            sampling: Sampling::default(),
+            sampling: Sampling::adaptive(8, 512, Sampling::DEFAULT_NOISE_TARGET / 4.0),
             image_size: 256,
             gibbs_iterations: 30,
             reference_noise_fraction: 0.05,
@@ -414,6 +420,17 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             o.region = options.region.clone();
             o
         }),
+        // Issue 12's error-driven set where viewers go: the demo's camera is the view set
+        // (what it sees directly and in mirror reflection), at the grid's count.
+        (
+            "minimal+views@8",
+            PlaceOptions {
+                region: options.region.clone(),
+                viewers: Some(vec![view.camera.clone()]),
+                budget: Some(8),
+                ..PlaceOptions::new(Method::Minimal)
+            },
+        ),
         (
             "grid 2x2x2",
             PlaceOptions {
@@ -651,7 +668,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             width: 600,
             cut_height: Some(bounds.max.y - 0.02 * bounds.size().y),
             number_probes: true,
-            comparison: placed_positions[1].clone(),
+            comparison: placed_positions[placed_positions.len() - 1].clone(),
             probes_name: "sdf+gibbs".into(),
             comparison_name: "grid 2x2x2".into(),
             ..TopViewOptions::default()

@@ -118,8 +118,8 @@ pub(crate) fn texel_surface(
 /// the normal) and the incidence, without the `near`/`far` extents the bake's bounds need.
 /// Each field equals [`texel_surface`]'s bit for bit; it skips the extents' divisions and,
 /// where the texel's angular radius is at most 0.05 (every texel from 128² up), the sine that
-/// only bounds `cos γ` there (`2 sin β ≤ 2β ≤ 0.1 = COS_MIN`). With the extents and the sine,
-/// the CPU twin took 8 % longer (BENCHMARKS.md, "The CPU twin's fetches").
+/// only bounds `cos γ` there (`2 sin β ≤ 2β ≤ 0.1 = COS_MIN`). With this and two smaller
+/// savings the CPU twin takes 3–4 % less time (BENCHMARKS.md, "The CPU twin's fetches").
 #[inline]
 pub(crate) fn texel_plane(
     resolution: u32,

@@ -21,7 +21,7 @@ pub struct Args {
     /// Image side in pixels.
     #[arg(long, default_value_t = 256)]
     pub size: u32,
-    /// A region of interest both placements stay in, `x0,y0,z0:x1,y1,z1` (repeat for a
+    /// A region of interest every placement stays in, `x0,y0,z0:x1,y1,z1` (repeat for a
     /// union of boxes).
     #[arg(long, value_name = "BOX")]
     pub region: Vec<String>,
