@@ -104,6 +104,11 @@ pub struct EvalConfig {
     /// placements learn from (seed [`training_seed`]): cheap (no render, no bake), and an
     /// error-driven set generalises to views it did not learn from only with many.
     pub training_views: usize,
+    /// `+views` placements learn from the evaluation views themselves instead of the training
+    /// view set: issue 12's protocol (a set placed for where viewers go, judged there; its
+    /// `~E` targets then checked on a second view set of another seed), against the default's
+    /// stricter one (placed from views the evaluation never renders). The report says which.
+    pub learn_from_evaluation_views: bool,
 }
 
 /// One scene of the sweep.
@@ -188,6 +193,7 @@ impl Default for EvalConfig {
             views: 0,
             view_seed: 1,
             training_views: 64,
+            learn_from_evaluation_views: false,
         }
     }
 }
@@ -1035,16 +1041,20 @@ pub fn run_sweep(
             },
         )?;
         // `+views` placements learn from a view set of their own (another seed), so that the
-        // views they are judged from are held out.
-        let training = view_set(
-            &scene,
-            &ViewSetOptions {
-                cameras: scene_config.cameras.clone(),
-                sampled: sampled.max(config.training_views),
-                seed: training_seed(config.view_seed),
-                region: region.clone(),
-            },
-        )?;
+        // views they are judged from are held out; or, when asked, from those views.
+        let training = if config.learn_from_evaluation_views {
+            cameras.clone()
+        } else {
+            view_set(
+                &scene,
+                &ViewSetOptions {
+                    cameras: scene_config.cameras.clone(),
+                    sampled: sampled.max(config.training_views),
+                    seed: training_seed(config.view_seed),
+                    region: region.clone(),
+                },
+            )?
+        };
         let specs = placement_specs(config, &scene, scene_config, region.as_ref(), &training)?;
         let mut views = Vec::with_capacity(cameras.len());
         for camera in cameras {
@@ -1568,6 +1578,21 @@ fn report_markdown(report: &SweepReport) -> String {
         report.device,
         report.seconds
     );
+    if c.placements.iter().any(|p| p.contains("+views"))
+        || c.scenes
+            .iter()
+            .any(|s| s.placements.iter().any(|p| p.contains("+views")))
+    {
+        let _ = writeln!(
+            text,
+            "{}\n",
+            if c.learn_from_evaluation_views {
+                "`+views` placements learn from the evaluation views themselves (`learn_from_evaluation_views`): placed for where the viewers are and judged there."
+            } else {
+                "`+views` placements learn from a training view set the evaluation never renders (another seed; at least `training_views` sampled viewpoints besides the cameras): every `+views` figure is on held-out views."
+            }
+        );
+    }
     let h = &report.headline;
     let _ = writeln!(text, "## Headline figures\n");
     let _ = writeln!(
@@ -1906,5 +1931,36 @@ mod tests {
         assert!((flat_figure.grid_spread - 1.1).abs() < 1e-9);
         assert!(flat_figure.grids_flat());
         assert!(!steep_figure.grids_flat());
+    }
+
+    /// The report says which views `+views` placements learnt from, and says nothing of it
+    /// when there are none.
+    #[test]
+    fn the_report_names_what_views_placements_learn_from() {
+        let report = |placements: &[&str], learn: bool| {
+            report_markdown(&SweepReport {
+                config: EvalConfig {
+                    placements: placements.iter().map(|p| p.to_string()).collect(),
+                    learn_from_evaluation_views: learn,
+                    ..EvalConfig::default()
+                },
+                device: "test".into(),
+                records: Vec::new(),
+                view_sets: Vec::new(),
+                reference_seconds: BTreeMap::new(),
+                headline: Headline::default(),
+                files: Vec::new(),
+                seconds: 0.0,
+                failures: None,
+                skipped: Vec::new(),
+            })
+        };
+        let held_out = report(&["minimal+views@grids"], false);
+        let learnt = report(&["minimal+views@grids"], true);
+        let none = report(&["sdf+gibbs"], true);
+        assert!(held_out.contains("held-out views"), "{held_out}");
+        assert!(learnt.contains("learn from the evaluation views themselves"));
+        assert!(!learnt.contains("held-out views"));
+        assert!(!none.contains("`+views` placements"));
     }
 }

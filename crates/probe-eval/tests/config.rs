@@ -108,3 +108,27 @@ fn an_unreadable_configuration_is_refused_naming_the_file() {
         "{error}"
     );
 }
+
+/// Every sweep configuration at the repository's root loads (a key renamed in `EvalConfig`
+/// would otherwise break a documented command silently), and the one for issue 12's protocol
+/// asks for it; the default does not.
+#[test]
+fn the_repository_configurations_load() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut loaded = Vec::new();
+    for entry in std::fs::read_dir(&root).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("eval") && name.ends_with(".toml") {
+            let config = EvalConfig::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(
+                config.learn_from_evaluation_views,
+                name == "eval-views-learned.toml",
+                "{name}"
+            );
+            loaded.push(name);
+        }
+    }
+    assert!(loaded.len() >= 4, "{loaded:?}");
+    assert!(!EvalConfig::default().learn_from_evaluation_views);
+}
