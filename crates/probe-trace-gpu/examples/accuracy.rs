@@ -406,7 +406,7 @@ fn rows(
         let a = accuracy(scene, &bake, rays, &looked.results, &shade);
         let s = TraceSummary::of(&looked.results);
         println!(
-            "| {label} | {} | {resolution}² | {name} | hybrid (BVH + look-up) | {} | {:.1} % | {:.1} % (radiance from a probe that sees the hit) | | 0 | {:.2} % | {:.4} | {:.1} (look-up) | | {:.2} | {:.1} (BVH {:.1} + look-up {:.1}) | | {:.1} | {:.2} |",
+            "| {label} | {} | {resolution}² | {name} | hybrid (BVH + look-up) | {} | {:.1} % | {:.1} % (radiance from a probe that sees the hit) | | 0 | {:.2} % | {:.5} | {:.1} (look-up) | | {:.2} | {:.1} (BVH {:.1} + look-up {:.1}) | | {:.1} | {:.2} |",
             positions.len(),
             a.rays,
             pct(a.seen, a.true_hits),

@@ -461,13 +461,39 @@ impl TexelPlane {
     fn holds(&self, v: Vec3) -> bool {
         self.offset(v).abs() <= self.surface.plane_thickness
     }
+
+    /// Whether the texel's surface faces like a surface with `normal` (oriented towards the
+    /// probe's side; zero: unknown, which any texel does): within 60°
+    /// ([`SAME_SURFACE_COS`]). In a crease a point lies within the thickness of both walls'
+    /// texels; only those of its own wall show it.
+    fn faces_like(&self, normal: Vec3) -> bool {
+        normal == Vec3::ZERO || self.surface.visible_normal.dot(normal) >= SAME_SURFACE_COS
+    }
 }
 
 /// Whether `texel` of `probe` shows the point `v` (relative to the probe: its surface's plane
 /// holds `v` within the plane's thickness; one fetch).
 fn texel_shows(field: &PackedField, probe: u32, texel: UVec2, v: Vec3) -> bool {
-    TexelPlane::of(field, probe, texel).is_some_and(|plane| plane.holds(v))
+    texel_shows_surface(field, probe, texel, v, Vec3::ZERO)
 }
+
+/// [`texel_shows`] for a point of a surface with the known `normal` (zero: unknown, as
+/// [`texel_shows`]): the texel's surface must also face the same way
+/// ([`TexelPlane::faces_like`]). One fetch.
+fn texel_shows_surface(
+    field: &PackedField,
+    probe: u32,
+    texel: UVec2,
+    v: Vec3,
+    normal: Vec3,
+) -> bool {
+    TexelPlane::of(field, probe, texel)
+        .is_some_and(|plane| plane.holds(v) && plane.faces_like(normal))
+}
+
+/// The least cosine between a texel's surface and a point's known normal for the texel to
+/// show the point ([`TexelPlane::faces_like`]).
+const SAME_SURFACE_COS: f32 = 0.5;
 
 /// How the texels around the direction of the surface point `v` (relative to `probe`) show
 /// it ([`texel_shows`]; one fetch each): whether every texel with a bilinear weight does (the
@@ -524,6 +550,23 @@ fn filtered_radiance(
     cell: UVec2,
     fetches: &mut u32,
 ) -> [f32; 3] {
+    surface_radiance(field, probe, v, sky, sharp, Vec3::ZERO, cell, fetches)
+}
+
+/// [`filtered_radiance`] of a point whose surface normal is known (`normal`, oriented
+/// towards the probe's side; zero: unknown): only texels whose surface faces like it show
+/// it ([`TexelPlane::faces_like`]).
+#[allow(clippy::too_many_arguments)]
+fn surface_radiance(
+    field: &PackedField,
+    probe: u32,
+    v: Vec3,
+    sky: bool,
+    sharp: bool,
+    normal: Vec3,
+    cell: UVec2,
+    fetches: &mut u32,
+) -> [f32; 3] {
     if let Some(f) = bilinear_coordinate(field.resolution, v) {
         let texels = texels_around(field.resolution, f);
         let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
@@ -548,7 +591,7 @@ fn filtered_radiance(
                     crate::packed::record_is_clear_sky(record, field.sky_distance),
                 )
             } else {
-                (texel_shows(field, probe, texel, v), false)
+                (texel_shows_surface(field, probe, texel, v, normal), false)
             };
             if shows {
                 *fetches += 1;
@@ -576,7 +619,7 @@ fn filtered_radiance(
             for (dx, dy) in STEP_EDGE_RING {
                 let texel = wrap_texel(base.x + dx, base.y + dy, field.resolution);
                 *fetches += 1;
-                if texel_shows(field, probe, texel, v) {
+                if texel_shows_surface(field, probe, texel, v, normal) {
                     *fetches += 1;
                     ring[found] = Vec3::from(radiance(field, probe, texel));
                     found += 1;
@@ -1656,6 +1699,9 @@ pub(crate) fn look_up_point(
     let normal = crate::surface::unpack_normal(query.normal);
     let n = field.resolution;
     let (mut best, mut best_cell, mut best_score) = (NO_PROBE, UVec2::ZERO, 0.0f32);
+    // The best probe whose texel holds the point on a surface facing otherwise (a crease's
+    // other wall, a curved or small surface): the answer only where no texel faces like it.
+    let (mut other, mut other_cell, mut other_score) = (NO_PROBE, UVec2::ZERO, 0.0f32);
     let (mut near_miss, mut near_miss_cell, mut near_miss_error) =
         (NO_PROBE, UVec2::ZERO, f32::INFINITY);
     let (mut next, mut examined, mut fetches) = (0u32, 0u32, 0u32);
@@ -1698,11 +1744,15 @@ pub(crate) fn look_up_point(
             continue;
         };
         // The texel shows the point: it lies on the texel's plane, within the plane's
-        // thickness along its normal.
+        // thickness along its normal, and the texel's surface faces like the point's.
         if plane.holds(v) {
             let score = facing / r * edge_weight(plane.record);
-            if score > best_score {
-                (best, best_cell, best_score) = (probe, cell, score);
+            if plane.faces_like(normal) {
+                if score > best_score {
+                    (best, best_cell, best_score) = (probe, cell, score);
+                }
+            } else if score > other_score {
+                (other, other_cell, other_score) = (probe, cell, score);
             }
         } else {
             let error = (r - plane.distance).abs() / r;
@@ -1711,21 +1761,27 @@ pub(crate) fn look_up_point(
             }
         }
     }
-    let (probe, cell) = if best != NO_PROBE {
+    // Where no texel faces like the point, a texel that holds it answers, read without the
+    // facing test.
+    let (probe, cell, facing_normal) = if best != NO_PROBE {
         record.status = HIT;
-        (best, best_cell)
+        (best, best_cell, normal)
+    } else if other != NO_PROBE {
+        record.status = HIT;
+        (other, other_cell, Vec3::ZERO)
     } else {
-        (near_miss, near_miss_cell)
+        (near_miss, near_miss_cell, Vec3::ZERO)
     };
     record.probes_tried = examined;
     if probe != NO_PROBE {
         record.radiance = if record.status == HIT {
-            filtered_radiance(
+            surface_radiance(
                 field,
                 probe,
                 x - field.position(probe),
                 false,
                 true,
+                facing_normal,
                 cell,
                 &mut fetches,
             )
