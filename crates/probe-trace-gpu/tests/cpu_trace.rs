@@ -751,9 +751,13 @@ fn rays_no_probe_can_start_read_the_nearest_probe() {
 /// A hit is read by the probe that sees it best, not the one that finished the ray: on the
 /// built-in Cornell box with a 4×4×4 grid at 128², probes a few centimetres from the walls
 /// finish rays at grazing angles, where their texels stretch along the surface (the light's
-/// radiance smeared over the ceiling beside it). Over the rays both answer as hits, the
-/// answers' radiance error is within 1.5× of the hybrid's (the exact hit, read by the probe
-/// that sees it best): 20.4 against 22.6; read by the answering probe it was 79.6.
+/// radiance smeared over the ceiling beside it). Over the rays both the light field and the
+/// hybrid answer as hits, the answers' squared radiance error is 20.4; read by the answering
+/// probe it was 79.6 (the bound: 30). The hybrid, which knows each hit's exact point and
+/// normal, reads only texels of a surface facing like the hit's: its error fell from 22.6 to
+/// under 1e-9 (these maps are flat colours per surface), where a point in a crease lies
+/// within the thickness of both walls' texels and was read from the other wall
+/// (BENCHMARKS.md, "The hybrid reads a point from its own surface").
 #[test]
 fn hits_are_read_by_the_probe_that_sees_them_best() {
     let scene = Scene::builtin("cornell").unwrap();
@@ -783,10 +787,8 @@ fn hits_are_read_by_the_probe_that_sees_them_best() {
     }
     eprintln!("{both} hits: squared error {se_answer:.2}, the hybrid's {se_hybrid:.2}");
     assert!(both > 5000, "{both}");
-    assert!(
-        se_answer < 1.5 * se_hybrid,
-        "{se_answer} against {se_hybrid}"
-    );
+    assert!(se_answer < 30.0, "{se_answer}");
+    assert!(se_hybrid < 1.0, "{se_hybrid}");
 }
 
 /// A MISS reads the sky, never a wall or a silhouette: with a path-traced bake (each texel

@@ -584,8 +584,12 @@ fn look_up_agrees_with_the_cpu_and_the_truth() {
         hits as f64 >= 0.97 * surfaces as f64,
         "{hits} of {surfaces} seen"
     );
-    // The others lie within a texel of another surface (the walls' creases), whose radiance
-    // the blend of the texels around the point mixes in.
-    assert!(right as f64 >= 0.9 * hits as f64, "{right} of {hits} right");
-    assert!(mean_error < 0.02, "mean radiance error {mean_error}");
+    // Only texels of a surface facing like the point's show it: a point in a crease is no
+    // longer read from the other wall, whose texels' planes hold it too (900 of 951 right,
+    // mean error 0.0091, when they did; 950 and 0.0004 since).
+    assert!(
+        right as f64 >= 0.99 * hits as f64,
+        "{right} of {hits} right"
+    );
+    assert!(mean_error < 0.002, "mean radiance error {mean_error}");
 }

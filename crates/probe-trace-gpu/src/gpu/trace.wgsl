@@ -1028,6 +1028,23 @@ fn plane_holds(plane: TexelPlane, v: vec3<f32>) -> bool {
     return abs(dot(v - plane.point, plane.surface.visible_normal)) <= plane.surface.plane_thickness;
 }
 
+// The least cosine between a texel's surface and a point's known normal for the texel to
+// show the point (src/cpu/mod.rs SAME_SURFACE_COS).
+const SAME_SURFACE_COS: f32 = 0.5;
+
+// Whether the texel's surface faces like a surface with `normal` (towards the probe's side;
+// zero: unknown, which any texel does; src/cpu/mod.rs TexelPlane::faces_like).
+fn plane_faces_like(plane: TexelPlane, normal: vec3<f32>) -> bool {
+    return all(normal == vec3<f32>(0.0)) || dot(plane.surface.visible_normal, normal) >= SAME_SURFACE_COS;
+}
+
+// texel_shows for a point of a surface with the known `normal` (zero: unknown; src/cpu/mod.rs
+// texel_shows_surface; one fetch, counted by the caller).
+fn texel_shows_surface(probe: u32, texel: vec2<u32>, v: vec3<f32>, normal: vec3<f32>) -> bool {
+    let plane = texel_plane(probe, texel);
+    return !plane.sky && plane_holds(plane, v) && plane_faces_like(plane, normal);
+}
+
 // The continuous texel coordinate of direction v (relative to a probe) in the n×n map: the
 // four texels around it are floor(f) + (0|1, 0|1).
 fn bilinear_coordinate(v: vec3<f32>, n: u32) -> vec2<f32> {
@@ -1084,9 +1101,11 @@ fn samples_showing(probe: u32, v: vec3<f32>) -> vec2<f32> {
 }
 
 // The depth-aware bilinear radiance of `probe` towards point v (relative to it) or, with
-// `sky`, in direction v (src/cpu/mod.rs filtered_radiance); `cell` alone where no texel
-// around shows it; the step-edge read only with `sharp`.
-fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, sharp: bool, cell: vec2<u32>) -> vec3<f32> {
+// `sky`, in direction v (src/cpu/mod.rs filtered_radiance and surface_radiance); `cell`
+// alone where no texel around shows it; the step-edge read only with `sharp`; with a
+// non-zero `normal` (the point's surface, towards the probe's side) only texels whose
+// surface faces like it show the point.
+fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, sharp: bool, normal: vec3<f32>, cell: vec2<u32>) -> vec3<f32> {
     let n = params.resolution;
     if (length(v) > 0.0) {
         let f = bilinear_coordinate(v, n);
@@ -1116,7 +1135,7 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, sharp: bool, cell: vec
                 shows = record_is_sky(record);
                 clear = record_is_clear_sky(record);
             } else {
-                shows = texel_shows(probe, texel, v);
+                shows = texel_shows_surface(probe, texel, v, normal);
             }
             if (shows) {
                 fetches += 1u;
@@ -1161,7 +1180,7 @@ fn filtered_radiance(probe: u32, v: vec3<f32>, sky: bool, sharp: bool, cell: vec
                     }
                     let texel = wrap_texel(i32(base.x) + dx, i32(base.y) + dy, n);
                     fetches += 1u;
-                    if (texel_shows(probe, texel, v)) {
+                    if (texel_shows_surface(probe, texel, v, normal)) {
                         fetches += 1u;
                         let value = radiance_at(probe, texel);
                         if (channel_mean(value) > channel_mean(bright)) {
@@ -1237,7 +1256,7 @@ fn glossy_sample(level: u32, probe: u32, d: vec3<f32>) -> vec3<f32> {
 fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32) -> vec3<f32> {
     let r = length(v);
     if (params.glossy_levels == 0u || r <= 0.0) {
-        return filtered_radiance(probe, v, sky, true, cell);
+        return filtered_radiance(probe, v, sky, true, vec3<f32>(0.0), cell);
     }
     var angle = params.glossy_angle;
     if (!sky) {
@@ -1250,7 +1269,7 @@ fn glossy_radiance(probe: u32, v: vec3<f32>, sky: bool, cell: vec2<u32>, t: f32)
     var a: vec3<f32>;
     if (lo == 0u) {
         // A cone's read blends: the step-edge read is for rays without one.
-        a = filtered_radiance(probe, v, sky, params.glossy_tan == 0.0, cell);
+        a = filtered_radiance(probe, v, sky, params.glossy_tan == 0.0, vec3<f32>(0.0), cell);
     } else {
         a = glossy_sample(lo, probe, d);
     }
@@ -1899,7 +1918,7 @@ fn look_up_point(index: u32) -> RayRecord {
         if (probe != NO_PROBE) {
             record.status = MISS;
             if (sky != NO_PROBE) {
-                record.radiance = filtered_radiance(probe, direction, true, true, cell);
+                record.radiance = filtered_radiance(probe, direction, true, true, vec3<f32>(0.0), cell);
             } else {
                 record.radiance = sky_map_radiance(direction);
             }
@@ -1914,6 +1933,11 @@ fn look_up_point(index: u32) -> RayRecord {
     var best = NO_PROBE;
     var best_cell = vec2<u32>(0u);
     var best_score = 0.0;
+    // The best probe whose texel holds the point on a surface facing otherwise (src/cpu/mod.rs
+    // look_up_point): the answer only where no texel faces like it.
+    var other = NO_PROBE;
+    var other_cell = vec2<u32>(0u);
+    var other_score = 0.0;
     var near_miss = NO_PROBE;
     var near_miss_cell = vec2<u32>(0u);
     var near_miss_error = bitcast<f32>(0x7f800000u);
@@ -1961,10 +1985,16 @@ fn look_up_point(index: u32) -> RayRecord {
         }
         if (plane_holds(plane, v)) {
             let score = facing / r * edge_weight(plane.record);
-            if (score > best_score) {
-                best = probe;
-                best_cell = cell;
-                best_score = score;
+            if (plane_faces_like(plane, normal)) {
+                if (score > best_score) {
+                    best = probe;
+                    best_cell = cell;
+                    best_score = score;
+                }
+            } else if (score > other_score) {
+                other = probe;
+                other_cell = cell;
+                other_score = score;
             }
         } else {
             let error = abs(r - plane.distance) / r;
@@ -1977,15 +2007,21 @@ fn look_up_point(index: u32) -> RayRecord {
     }
     var probe = near_miss;
     var cell = near_miss_cell;
+    var facing_normal = vec3<f32>(0.0);
     if (best != NO_PROBE) {
         record.status = HIT;
         probe = best;
         cell = best_cell;
+        facing_normal = normal;
+    } else if (other != NO_PROBE) {
+        record.status = HIT;
+        probe = other;
+        cell = other_cell;
     }
     record.probes_tried = examined;
     if (probe != NO_PROBE) {
         if (record.status == HIT) {
-            record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, true, cell);
+            record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, true, facing_normal, cell);
         } else {
             fetches += 1u;
             record.radiance = radiance_at(probe, cell);
