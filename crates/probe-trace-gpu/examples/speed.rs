@@ -322,6 +322,23 @@ fn main() {
     );
     let g = runs.into_iter().next().unwrap();
     let c = cpu.look_up(&cpu_field, &queries, &defaults).unwrap();
+    // The look-up's answers: the same probe and status, radiance within what the device's
+    // rounding moves.
+    let agree = g
+        .results
+        .iter()
+        .zip(&c.results)
+        .filter(|(x, y)| {
+            x.status == y.status
+                && x.probe == y.probe
+                && x.radiance
+                    .abs_diff_eq(y.radiance, 1e-4 * (1.0 + y.radiance.length()))
+        })
+        .count();
+    println!(
+        "hybrid look-up: GPU and CPU agree on {agree} of {} queries (status, probe, radiance)",
+        queries.len()
+    );
     let s = TraceSummary::of(&g.results);
     println!(
         "| BVH (`Scene::closest_hits`, all CPU threads) | {:.1} % | {:.1} % | 0 | | | | | {:.3} s |",
