@@ -89,15 +89,9 @@ pub(crate) fn texel_surface(
     normal: Vec3,
     thickness_scale: f32,
 ) -> TexelSurface {
-    let l1 = center.x.abs() + center.y.abs() + center.z.abs();
-    let beta = K_BETA * l1 * l1.sqrt() / resolution as f32;
+    let beta = angular_radius(resolution, center);
     let (sin_b, cos_b) = beta.sin_cos();
-    let (n, c) = if normal == Vec3::ZERO {
-        (-center, -1.0)
-    } else {
-        (normal, normal.dot(center))
-    };
-    let visible_normal = if c <= 0.0 { n } else { -n };
+    let (visible_normal, c) = facing_probe(center, normal);
     let cos_g = c.abs().max(COS_MIN.max(2.0 * sin_b)).min(1.0);
     let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
     let far_extent = distance * (cos_g / (cos_g * cos_b - sin_g * sin_b) - 1.0);
@@ -111,6 +105,26 @@ pub(crate) fn texel_surface(
         visible_normal,
         cos_incidence: c.abs(),
     }
+}
+
+/// The angular radius `β` bound of the texel whose centre direction is `center`
+/// ([`K_BETA`]).
+#[inline]
+fn angular_radius(resolution: u32, center: Vec3) -> f32 {
+    let l1 = center.x.abs() + center.y.abs() + center.z.abs();
+    K_BETA * l1 * l1.sqrt() / resolution as f32
+}
+
+/// A texel's stored `normal` turned to the probe's side (zero: unknown, taken as facing the
+/// probe), with the cosine of the stored normal and the centre direction.
+#[inline]
+fn facing_probe(center: Vec3, normal: Vec3) -> (Vec3, f32) {
+    let (n, c) = if normal == Vec3::ZERO {
+        (-center, -1.0)
+    } else {
+        (normal, normal.dot(center))
+    };
+    (if c <= 0.0 { n } else { -n }, c)
 }
 
 /// The part of a texel's surface model that the trace reads at every fetch (the CPU twin's
@@ -128,19 +142,13 @@ pub(crate) fn texel_plane(
     normal: Vec3,
     thickness_scale: f32,
 ) -> TexelPlaneModel {
-    let l1 = center.x.abs() + center.y.abs() + center.z.abs();
-    let beta = K_BETA * l1 * l1.sqrt() / resolution as f32;
+    let beta = angular_radius(resolution, center);
     let grazing_floor = if beta <= 0.05 {
         COS_MIN
     } else {
         COS_MIN.max(2.0 * beta.sin())
     };
-    let (n, c) = if normal == Vec3::ZERO {
-        (-center, -1.0)
-    } else {
-        (normal, normal.dot(center))
-    };
-    let visible_normal = if c <= 0.0 { n } else { -n };
+    let (visible_normal, c) = facing_probe(center, normal);
     let cos_g = c.abs().max(grazing_floor).min(1.0);
     let thickness = thickness_scale * distance * beta / cos_g;
     TexelPlaneModel {
