@@ -174,9 +174,11 @@
 //! exactly (a BVH, hardware ray queries) needs only the radiance at the hit: for each
 //! [`SurfaceQuery`], the selection's candidates for the point (then the nearest probes) are
 //! asked whether their texel towards the point shows it (the point on the texel's plane, the
-//! probe on its lit side), and the best by view cosine over distance answers with the blend of
-//! its texels around the point. An escaped ray takes the sky from a candidate that sees sky
-//! in its direction. No march: about 12 fetches a query.
+//! probe on its lit side, the texel's surface facing like the query's normal: in a crease the
+//! point lies within the thickness of both walls' texels), and the best by view cosine over
+//! distance answers with the blend of its texels around the point that show it. An escaped
+//! ray takes the sky from a candidate that sees sky in its direction. No march: about 12
+//! fetches a query.
 //!
 //! **Diffuse** (seed 001, DDGI): trilinear grid or Delaunay barycentric weights (outside the
 //! probes' convex hull, those of the nearest hull point, so the blend stays continuous there)

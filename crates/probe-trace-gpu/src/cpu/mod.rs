@@ -1649,11 +1649,14 @@ pub(crate) fn trace_ray<O: RayObserver>(
 /// Candidates are the selection's for the point, then (only if none of those sees it) the
 /// nearest probes. A candidate sees the point when it lies on the point's side of the surface
 /// and the texel holding the point's direction shows a surface whose plane holds the point
-/// within the plane's thickness along its normal (one fetch). The best such probe, by the
-/// cosine of its view of the surface over its distance (edge texels weighed a quarter),
-/// answers HIT with the blend of its texels around the point ([`filtered_radiance`]). If none
-/// sees it: UNKNOWN, answered by the candidate whose texel's distance comes closest to the
-/// point's. Escaped rays: MISS, the sky along the direction from the first candidate (own,
+/// within the plane's thickness along its normal and which faces like the point's surface
+/// ([`TexelPlane::faces_like`]; one fetch). The best such probe, by the cosine of its view of
+/// the surface over its distance (edge texels weighed a quarter), answers HIT with the blend
+/// of its texels around the point that face like it ([`surface_radiance`]); where no texel
+/// faces like it, the best whose plane merely holds it answers, read without the facing test
+/// (a crease's other wall read the point before: BENCHMARKS.md, "The hybrid reads a point
+/// from its own surface"). If none sees it: UNKNOWN, answered by the candidate whose texel's
+/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction from the first candidate (own,
 /// then nearest) whose texel there is clear sky, else the sky map's ([`sky_map_radiance`]).
 pub(crate) fn look_up_point(
     field: &PackedField,
