@@ -1656,8 +1656,9 @@ pub(crate) fn trace_ray<O: RayObserver>(
 /// faces like it, the best whose plane merely holds it answers, read without the facing test
 /// (a crease's other wall read the point before: BENCHMARKS.md, "The hybrid reads a point
 /// from its own surface"). If none sees it: UNKNOWN, answered by the candidate whose texel's
-/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction from the first candidate (own,
-/// then nearest) whose texel there is clear sky, else the sky map's ([`sky_map_radiance`]).
+/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction
+/// from the first candidate (own, then nearest) whose texel there is clear sky, else the sky
+/// map's ([`sky_map_radiance`]).
 pub(crate) fn look_up_point(
     field: &PackedField,
     selection: &PackedSelection,
