@@ -488,7 +488,8 @@ pub enum Tracer {
     /// Hi-Z over the min/max pyramid (seed 000 §4.3).
     HiZ,
     /// Exact hits from the scene's BVH (on the CPU here), radiance from the probes
-    /// ([`probe_trace_gpu::Tracer::look_up`] on the device).
+    /// ([`probe_trace_gpu::Tracer::look_up`] on the device), bounded below by the hit's own
+    /// emission.
     Hybrid,
 }
 
@@ -595,7 +596,9 @@ impl Device {
     /// Answers `rays` with `tracer`: through the probes in `field`, or for
     /// [`Tracer::Hybrid`] by casting them against `scene`'s BVH and looking the hits' radiance
     /// up in the probes that see them. The hybrid's results carry the BVH's `t` and position,
-    /// and its wall time covers both halves (no device time is reported for it).
+    /// never less radiance than the hit's material emits towards the ray (the probes' filtered
+    /// read would blur an emitter's edge into its darker surround), and its wall time covers
+    /// both halves (no device time is reported for it).
     ///
     /// # Errors
     /// [`EvalError::Trace`].
@@ -627,9 +630,15 @@ impl Device {
             })
             .collect();
         let mut output = self.tracer.look_up(field, &queries, &options)?;
-        for (result, hit) in output.results.iter_mut().zip(&hits) {
+        let materials = scene.materials();
+        for ((result, hit), ray) in output.results.iter_mut().zip(&hits).zip(&casts) {
             if let Some(hit) = hit {
                 result.t = hit.t;
+                // What leaves a surface is at least what it emits: where the probes' filtered
+                // read blurs an emitter's edge into its darker surround, the exact hit's own
+                // emission bounds the answer from below.
+                let emitted = emission_towards(&materials[hit.material as usize], hit, ray);
+                result.radiance = result.radiance.max(emitted);
             }
         }
         output.timing = probe_trace_gpu::Timing {
@@ -677,6 +686,18 @@ impl Device {
         options: &DiffuseOptions,
     ) -> Result<DiffuseOutput, EvalError> {
         Ok(self.tracer.shade_diffuse(irradiance, points, options)?)
+    }
+}
+
+/// The radiance `hit`'s material emits back along `ray`: its emission on the side it emits
+/// from (both sides when double-sided), zero otherwise.
+fn emission_towards(material: &probe_scene::Material, hit: &probe_scene::Hit, ray: &Ray) -> Vec3 {
+    if material.is_emissive()
+        && (material.double_sided || hit.geometric_normal.dot(ray.direction) <= 0.0)
+    {
+        material.emissive
+    } else {
+        Vec3::ZERO
     }
 }
 
