@@ -387,15 +387,8 @@ impl<'s> Shader<'s> {
     /// emits from, zero otherwise.
     #[inline]
     pub fn emission(&self, hit: &Hit, towards_viewer: Vec3) -> Vec3 {
-        let material = &self.scene.materials()[hit.material as usize];
-        if !material.is_emissive() {
-            return Vec3::ZERO;
-        }
-        if material.double_sided || hit.geometric_normal.dot(towards_viewer) >= 0.0 {
-            material.emissive
-        } else {
-            Vec3::ZERO
-        }
+        self.scene.materials()[hit.material as usize]
+            .emission_towards(hit.geometric_normal, towards_viewer)
     }
 
     /// The emission a bounce ray (unit `direction`, sampled with solid-angle pdf `bsdf_pdf`)

@@ -637,7 +637,8 @@ impl Device {
                 // What leaves a surface is at least what it emits: where the probes' filtered
                 // read blurs an emitter's edge into its darker surround, the exact hit's own
                 // emission bounds the answer from below.
-                let emitted = emission_towards(&materials[hit.material as usize], hit, ray);
+                let emitted = materials[hit.material as usize]
+                    .emission_towards(hit.geometric_normal, -ray.direction);
                 result.radiance = result.radiance.max(emitted);
             }
         }
@@ -686,18 +687,6 @@ impl Device {
         options: &DiffuseOptions,
     ) -> Result<DiffuseOutput, EvalError> {
         Ok(self.tracer.shade_diffuse(irradiance, points, options)?)
-    }
-}
-
-/// The radiance `hit`'s material emits back along `ray`: its emission on the side it emits
-/// from (both sides when double-sided), zero otherwise.
-fn emission_towards(material: &probe_scene::Material, hit: &probe_scene::Hit, ray: &Ray) -> Vec3 {
-    if material.is_emissive()
-        && (material.double_sided || hit.geometric_normal.dot(ray.direction) <= 0.0)
-    {
-        material.emissive
-    } else {
-        Vec3::ZERO
     }
 }
 

@@ -71,6 +71,18 @@ impl Material {
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() > 0.0
     }
+
+    /// The radiance the material emits from a surface with `geometric_normal` towards a viewer
+    /// in direction `towards_viewer`: its emission on the side it emits from (the normal's
+    /// side; both sides when double-sided), zero otherwise.
+    pub fn emission_towards(&self, geometric_normal: Vec3, towards_viewer: Vec3) -> Vec3 {
+        if self.is_emissive() && (self.double_sided || geometric_normal.dot(towards_viewer) >= 0.0)
+        {
+            self.emissive
+        } else {
+            Vec3::ZERO
+        }
+    }
 }
 
 /// How a material's alpha is interpreted.
