@@ -421,6 +421,12 @@ fn rows(
             ms(bvh),
             hybrid.as_secs_f64() / bvh.as_secs_f64(),
         );
+        eprintln!(
+            "  ({label}, {name}: hybrid radiance MSE {:.5}, of which UNKNOWN look-ups {:.5} ({:.1} %))",
+            a.radiance_mse,
+            a.unknown_mse,
+            100.0 * a.unknown_mse / a.radiance_mse.max(f64::MIN_POSITIVE)
+        );
         eprintln!("  ({label}, {name}: mini bake {bake_time:?}, upload {upload:?} on the CPU)");
     }
 }

@@ -67,7 +67,9 @@ pub trait Tracer {
     /// The hybrid tracer's radiance: for each surface point found by an exact ray cast, the
     /// radiance the probes that see it hold ([`SurfaceQuery`]), one result per query, in
     /// order. HIT: a probe's texel shows the point (on its plane); UNKNOWN: none of
-    /// the candidates does, and the one whose texel comes closest answers; MISS: an escaped
+    /// the candidates does, and the point takes the radiance of the nearest point of its own
+    /// surface that a near candidate sees (a few texels around its direction), else the
+    /// closest candidate's texel in its direction; MISS: an escaped
     /// ray, the probes' sky along its direction. `options` gives the candidates
     /// (`nearest_candidates`); the march options are not used.
     ///

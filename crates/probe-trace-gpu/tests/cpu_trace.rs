@@ -919,3 +919,57 @@ fn probes_that_refuse_the_same_crossing_agree_on_a_hit() {
     assert!(a_on.seen_rate() > a_off.seen_rate());
     assert!(a_on.radiance_mse <= a_off.radiance_mse);
 }
+
+/// A surface point no probe sees (the hybrid's look-up answers UNKNOWN) takes the radiance of
+/// the nearest point of its own surface that a probe sees, not the texel in its direction,
+/// which shows whatever hides it. Eight probes behind the pillar of the pillar room, the far
+/// wall's points in its shadow (flat colours per surface, so a read of the right surface is
+/// exact): all 16 of the 20 that no probe sees read the wall's colour (none did when they
+/// took the texel in their direction, the pillar's).
+#[test]
+fn points_no_probe_sees_read_their_own_surface() {
+    let scene = room(true);
+    let shade = albedo_shade(&scene);
+    // Eight probes behind the pillar (x < −1.4, |z| ≤ 0.05): the far wall (x = 2) is hidden
+    // from all of them for |z| < 1.0.
+    let grid = ProbeGrid::new(
+        Vec3::new(-1.8, 1.0, -0.05),
+        Vec3::new(0.4, 1.0, 0.1),
+        [2, 2, 2],
+    )
+    .unwrap();
+    let bake = mini_capture(&scene, &grid.positions(), 64, 100.0, &shade);
+    let (mut tracer, field) = cpu_grid_field(&bake, grid);
+    let viewer = Vec3::new(1.0, 1.5, 0.0);
+    let mut points = Vec::new();
+    for y in [0.5, 1.0, 1.5, 2.0, 2.5] {
+        for z in [-0.9, -0.8, 0.8, 0.9] {
+            points.push(Vec3::new(2.0, y, z));
+        }
+    }
+    let rays: Vec<Ray> = points
+        .iter()
+        .map(|&p| Ray::new(viewer, (p - viewer).normalize()))
+        .collect();
+    let hits = scene.closest_hits(&rays, f32::INFINITY);
+    let queries = hit_queries(&rays, &hits);
+    let looked = tracer
+        .look_up(&field, &queries, &TraceOptions::default())
+        .unwrap()
+        .results;
+    let (mut unseen, mut right) = (0usize, 0usize);
+    for (l, hit) in looked.iter().zip(&hits) {
+        let hit = hit.as_ref().expect("the far wall");
+        assert_eq!(hit.material, 1, "the far wall");
+        if l.status == RayStatus::Unknown {
+            unseen += 1;
+            right += usize::from((l.radiance - shade(hit, Vec3::ZERO)).abs().max_element() < 1e-4);
+        }
+    }
+    eprintln!(
+        "{unseen} of {} points no probe sees, {right} of them read the wall's colour",
+        points.len()
+    );
+    assert!(unseen >= 12, "{unseen}");
+    assert_eq!(right, unseen);
+}

@@ -1643,6 +1643,82 @@ pub(crate) fn trace_ray<O: RayObserver>(
     record
 }
 
+/// The candidates whose texel in a point's direction came nearest to showing it, by the
+/// relative gap between the texel's distance and the point's (the best first), for the
+/// estimate of a point no probe sees ([`look_up_point`]).
+#[derive(Clone, Copy)]
+struct NearMisses {
+    probes: [u32; 2],
+    cells: [UVec2; 2],
+    errors: [f32; 2],
+}
+
+impl Default for NearMisses {
+    fn default() -> Self {
+        Self {
+            probes: [NO_PROBE; 2],
+            cells: [UVec2::ZERO; 2],
+            errors: [f32::INFINITY; 2],
+        }
+    }
+}
+
+impl NearMisses {
+    /// Keeps `probe` if its `error` is below one of the two kept (ties keep the earlier).
+    fn insert(&mut self, probe: u32, cell: UVec2, error: f32) {
+        if error < self.errors[0] {
+            (self.probes[1], self.cells[1], self.errors[1]) =
+                (self.probes[0], self.cells[0], self.errors[0]);
+            (self.probes[0], self.cells[0], self.errors[0]) = (probe, cell, error);
+        } else if error < self.errors[1] {
+            (self.probes[1], self.cells[1], self.errors[1]) = (probe, cell, error);
+        }
+    }
+}
+
+/// How far, in texels either way, [`nearest_surface_texel`] looks from the point's own texel.
+pub(crate) const NEAREST_SURFACE_REACH: u32 = 4;
+
+/// The texel of `probe` within [`NEAREST_SURFACE_REACH`] of `cell` (clamped to the map) whose
+/// stored point lies nearest to the surface point `v` (relative to the probe) on the point's
+/// own surface: facing like `normal` ([`TexelPlane::faces_like`]) and off the point's plane by
+/// no more than the texel's plane thickness plus a fifth of its distance from the point, with
+/// that distance. `None` when no texel there shows that surface. One fetch per texel; `gpu/trace.wgsl`'s
+/// `nearest_surface_texel` step for step.
+fn nearest_surface_texel(
+    field: &PackedField,
+    probe: u32,
+    cell: UVec2,
+    v: Vec3,
+    normal: Vec3,
+    fetches: &mut u32,
+) -> Option<(UVec2, f32)> {
+    let n = field.resolution;
+    let (mut found, mut nearest) = (None, f32::INFINITY);
+    for y in
+        cell.y.saturating_sub(NEAREST_SURFACE_REACH)..=(cell.y + NEAREST_SURFACE_REACH).min(n - 1)
+    {
+        for x in cell.x.saturating_sub(NEAREST_SURFACE_REACH)
+            ..=(cell.x + NEAREST_SURFACE_REACH).min(n - 1)
+        {
+            let texel = UVec2::new(x, y);
+            *fetches += 1;
+            let Some(plane) = TexelPlane::of(field, probe, texel) else {
+                continue;
+            };
+            let gap = plane.point - v;
+            let distance = gap.length();
+            if plane.faces_like(normal)
+                && gap.dot(normal).abs() <= plane.surface.plane_thickness + 0.2 * distance
+                && distance < nearest
+            {
+                (found, nearest) = (Some((texel, distance)), distance);
+            }
+        }
+    }
+    found
+}
+
 /// The radiance of one surface point from the probes that see it (the hybrid tracer's second
 /// half; `gpu/trace.wgsl`'s `look_up_point` step for step).
 ///
@@ -1655,8 +1731,12 @@ pub(crate) fn trace_ray<O: RayObserver>(
 /// of its texels around the point that face like it ([`surface_radiance`]); where no texel
 /// faces like it, the best whose plane merely holds it answers, read without the facing test
 /// (a crease's other wall read the point before: BENCHMARKS.md, "The hybrid reads a point
-/// from its own surface"). If none sees it: UNKNOWN, answered by the candidate whose texel's
-/// distance comes closest to the point's. Escaped rays: MISS, the sky along the direction
+/// from its own surface"). If none sees it: UNKNOWN, an estimate from the point's own
+/// surface nearby: of the two candidates whose texel's distance came closest to the point's
+/// (every probe facing the point is asked where no candidate does), the texel within
+/// [`NEAREST_SURFACE_REACH`] whose stored point lies nearest on that surface
+/// ([`nearest_surface_texel`]); where neither shows it, the closest candidate's texel in the
+/// point's direction (which shows what hides it). Escaped rays: MISS, the sky along the direction
 /// from the first candidate (own, then nearest) whose texel there is clear sky, else the sky
 /// map's ([`sky_map_radiance`]).
 pub(crate) fn look_up_point(
@@ -1706,8 +1786,7 @@ pub(crate) fn look_up_point(
     // The best probe whose texel holds the point on a surface facing otherwise (a crease's
     // other wall, a curved or small surface): the answer only where no texel faces like it.
     let (mut other, mut other_cell, mut other_score) = (NO_PROBE, UVec2::ZERO, 0.0f32);
-    let (mut near_miss, mut near_miss_cell, mut near_miss_error) =
-        (NO_PROBE, UVec2::ZERO, f32::INFINITY);
+    let mut near_misses = NearMisses::default();
     let (mut next, mut examined, mut fetches) = (0u32, 0u32, 0u32);
     let (mut anchor, mut extension, mut extended) = (NO_PROBE, 0u32, false);
     loop {
@@ -1759,9 +1838,22 @@ pub(crate) fn look_up_point(
                 (other, other_cell, other_score) = (probe, cell, score);
             }
         } else {
-            let error = (r - plane.distance).abs() / r;
-            if error < near_miss_error {
-                (near_miss, near_miss_cell, near_miss_error) = (probe, cell, error);
+            near_misses.insert(probe, cell, (r - plane.distance).abs() / r);
+        }
+    }
+    if best == NO_PROBE && other == NO_PROBE && near_misses.probes[0] == NO_PROBE {
+        // No candidate faces the point: every probe that does is asked (rare: a surface
+        // turned away from all its candidates).
+        for probe in 0..field.probe_count {
+            let v = x - field.position(probe);
+            let r = v.length();
+            if r == 0.0 || (normal != Vec3::ZERO && normal.dot(v) >= 0.0) {
+                continue;
+            }
+            fetches += 1;
+            let cell = direction_cell(n, v / r);
+            if let Some(plane) = TexelPlane::of(field, probe, cell) {
+                near_misses.insert(probe, cell, (r - plane.distance).abs() / r);
             }
         }
     }
@@ -1774,9 +1866,27 @@ pub(crate) fn look_up_point(
         record.status = HIT;
         (other, other_cell, Vec3::ZERO)
     } else {
-        (near_miss, near_miss_cell, Vec3::ZERO)
+        (near_misses.probes[0], near_misses.cells[0], Vec3::ZERO)
     };
     record.probes_tried = examined;
+    let (mut probe, mut cell) = (probe, cell);
+    if record.status != HIT && probe != NO_PROBE {
+        // No probe sees the point: the nearest point of its surface that one of the two
+        // nearest misses does see (else the first's texel in its direction, an occluder's).
+        let mut nearest = f32::INFINITY;
+        for (&candidate, &around) in near_misses.probes.iter().zip(&near_misses.cells) {
+            if candidate == NO_PROBE {
+                continue;
+            }
+            let v = x - field.position(candidate);
+            if let Some((texel, distance)) =
+                nearest_surface_texel(field, candidate, around, v, normal, &mut fetches)
+                && distance < nearest
+            {
+                (probe, cell, nearest) = (candidate, texel, distance);
+            }
+        }
+    }
     if probe != NO_PROBE {
         record.radiance = if record.status == HIT {
             surface_radiance(

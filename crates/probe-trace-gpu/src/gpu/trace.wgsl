@@ -1885,6 +1885,69 @@ fn load_ray(index: u32) -> TraceRay {
 // The radiance of one surface point from the probes that see it (src/cpu/mod.rs
 // look_up_point): the hybrid tracer's second half. The query is read from the ray binding
 // as raw words: position, packed normal, direction, surface flag.
+// The two candidates whose texel in a point's direction came nearest to showing it, by the
+// relative gap between the texel's distance and the point's, the best first
+// (src/cpu/mod.rs NearMisses).
+struct NearMisses {
+    probes: array<u32, 2>,
+    cells: array<vec2<u32>, 2>,
+    errors: array<f32, 2>,
+}
+
+fn near_misses_insert(kept: NearMisses, probe: u32, cell: vec2<u32>, error: f32) -> NearMisses {
+    var near = kept;
+    if (error < near.errors[0]) {
+        near.probes[1] = near.probes[0];
+        near.cells[1] = near.cells[0];
+        near.errors[1] = near.errors[0];
+        near.probes[0] = probe;
+        near.cells[0] = cell;
+        near.errors[0] = error;
+    } else if (error < near.errors[1]) {
+        near.probes[1] = probe;
+        near.cells[1] = cell;
+        near.errors[1] = error;
+    }
+    return near;
+}
+
+// src/cpu/mod.rs NEAREST_SURFACE_REACH.
+const NEAREST_SURFACE_REACH: u32 = 4u;
+
+struct SurfaceTexel {
+    found: bool,
+    texel: vec2<u32>,
+    distance: f32,
+}
+
+// The texel of `probe` within NEAREST_SURFACE_REACH of `cell` whose stored point lies nearest
+// to the surface point `v` on the point's own surface (src/cpu/mod.rs nearest_surface_texel
+// step for step; one fetch per texel).
+fn nearest_surface_texel(probe: u32, cell: vec2<u32>, v: vec3<f32>, normal: vec3<f32>) -> SurfaceTexel {
+    let n = params.resolution;
+    var result = SurfaceTexel(false, vec2<u32>(0u), bitcast<f32>(0x7f800000u));
+    let lo = vec2<u32>(max(cell, vec2<u32>(NEAREST_SURFACE_REACH)) - vec2<u32>(NEAREST_SURFACE_REACH));
+    let hi = min(cell + vec2<u32>(NEAREST_SURFACE_REACH), vec2<u32>(n - 1u));
+    for (var y = lo.y; y <= hi.y; y += 1u) {
+        for (var x = lo.x; x <= hi.x; x += 1u) {
+            let texel = vec2<u32>(x, y);
+            fetches += 1u;
+            let plane = texel_plane(probe, texel);
+            if (plane.sky) {
+                continue;
+            }
+            let gap = plane.point - v;
+            let distance = length(gap);
+            if (plane_faces_like(plane, normal)
+                && abs(dot(gap, normal)) <= plane.surface.plane_thickness + 0.2 * distance
+                && distance < result.distance) {
+                result = SurfaceTexel(true, texel, distance);
+            }
+        }
+    }
+    return result;
+}
+
 fn look_up_point(index: u32) -> RayRecord {
     fetches = 0u;
     let a = ray_words[2u * index];
@@ -1938,9 +2001,7 @@ fn look_up_point(index: u32) -> RayRecord {
     var other = NO_PROBE;
     var other_cell = vec2<u32>(0u);
     var other_score = 0.0;
-    var near_miss = NO_PROBE;
-    var near_miss_cell = vec2<u32>(0u);
-    var near_miss_error = bitcast<f32>(0x7f800000u);
+    var near = NearMisses(array<u32, 2>(NO_PROBE, NO_PROBE), array<vec2<u32>, 2>(vec2<u32>(0u), vec2<u32>(0u)), array<f32, 2>(bitcast<f32>(0x7f800000u), bitcast<f32>(0x7f800000u)));
     var next = 0u;
     var examined = 0u;
     var anchor = NO_PROBE;
@@ -1997,16 +2058,27 @@ fn look_up_point(index: u32) -> RayRecord {
                 other_score = score;
             }
         } else {
-            let error = abs(r - plane.distance) / r;
-            if (error < near_miss_error) {
-                near_miss = probe;
-                near_miss_cell = cell;
-                near_miss_error = error;
+            near = near_misses_insert(near, probe, cell, abs(r - plane.distance) / r);
+        }
+    }
+    if (best == NO_PROBE && other == NO_PROBE && near.probes[0] == NO_PROBE) {
+        // No candidate faces the point: every probe that does is asked (src/cpu/mod.rs).
+        for (var probe = 0u; probe < params.probe_count; probe += 1u) {
+            let v = x - positions[probe].xyz;
+            let r = length(v);
+            if (r == 0.0 || (any(normal != vec3<f32>(0.0)) && dot(normal, v) >= 0.0)) {
+                continue;
+            }
+            fetches += 1u;
+            let cell = texel_containing(n, v / r);
+            let plane = texel_plane(probe, cell);
+            if (!plane.sky) {
+                near = near_misses_insert(near, probe, cell, abs(r - plane.distance) / r);
             }
         }
     }
-    var probe = near_miss;
-    var cell = near_miss_cell;
+    var probe = near.probes[0];
+    var cell = near.cells[0];
     var facing_normal = vec3<f32>(0.0);
     if (best != NO_PROBE) {
         record.status = HIT;
@@ -2019,6 +2091,23 @@ fn look_up_point(index: u32) -> RayRecord {
         cell = other_cell;
     }
     record.probes_tried = examined;
+    if (record.status != HIT && probe != NO_PROBE) {
+        // No probe sees the point: the nearest point of its surface that one of the two
+        // nearest misses does see (else the first's texel in its direction).
+        var nearest = bitcast<f32>(0x7f800000u);
+        for (var k = 0u; k < 2u; k += 1u) {
+            let candidate = near.probes[k];
+            if (candidate == NO_PROBE) {
+                continue;
+            }
+            let found = nearest_surface_texel(candidate, near.cells[k], x - positions[candidate].xyz, normal);
+            if (found.found && found.distance < nearest) {
+                probe = candidate;
+                cell = found.texel;
+                nearest = found.distance;
+            }
+        }
+    }
     if (probe != NO_PROBE) {
         if (record.status == HIT) {
             record.radiance = filtered_radiance(probe, x - positions[probe].xyz, false, true, facing_normal, cell);

@@ -479,6 +479,9 @@ pub struct Accuracy {
     pub wrong_answers: usize,
     /// Mean squared radiance error per channel over all rays.
     pub radiance_mse: f64,
+    /// The part of `radiance_mse` from rays answered UNKNOWN (their squared errors over all
+    /// rays).
+    pub unknown_mse: f64,
 }
 
 impl Accuracy {
@@ -568,7 +571,7 @@ pub fn accuracy(
         rays: rays.len(),
         ..Accuracy::default()
     };
-    let mut se = 0.0;
+    let (mut se, mut unknown_se) = (0.0, 0.0);
     for ((hit, seen, correct, correct_2, wrong, e), result) in per_ray.into_iter().zip(results) {
         if hit {
             a.true_hits += 1;
@@ -586,10 +589,14 @@ pub fn accuracy(
         match result.status {
             RayStatus::Hit => a.hits += 1,
             RayStatus::Miss => a.misses += 1,
-            RayStatus::Unknown => a.unknown += 1,
+            RayStatus::Unknown => {
+                a.unknown += 1;
+                unknown_se += e;
+            }
         }
     }
     a.radiance_mse = se / rays.len().max(1) as f64;
+    a.unknown_mse = unknown_se / rays.len().max(1) as f64;
     a
 }
 
