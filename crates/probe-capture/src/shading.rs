@@ -383,6 +383,45 @@ impl<'s> Shader<'s> {
         incident
     }
 
+    /// The normals of the hit as a viewer at `towards_viewer` sees it (geometric, shading;
+    /// both on the viewer's side), or `None` for the back of a single-sided material, which
+    /// reflects nothing.
+    pub fn visible_normals(&self, hit: &Hit, towards_viewer: Vec3) -> Option<(Vec3, Vec3)> {
+        self.surface(hit, towards_viewer)
+            .map(|s| (s.geometric_normal, s.shading_normal))
+    }
+
+    /// Radiance leaving the hit towards the viewer when the light the surfaces around it
+    /// reflect (and the sky) is known as the irradiance `indirect_irradiance` at it (from
+    /// irradiance probes, for instance, which hold exactly that): emission plus the Lambertian
+    /// albedo over π times the direct irradiance ([`Self::direct_irradiance`], exact shadow
+    /// rays, `emitter_samples` emitter samples) and `indirect_irradiance`. Every surface
+    /// beyond the primary hit is Lambertian in this model, as in
+    /// [`Self::outgoing_radiance`]; the back of a single-sided material gives its emission
+    /// only (zero).
+    pub fn radiance_with_indirect<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        indirect_irradiance: Vec3,
+        emitter_samples: u32,
+        rng: &mut S,
+    ) -> Vec3 {
+        let emitted = self.emission(hit, towards_viewer);
+        let Some(surface) = self.surface(hit, towards_viewer) else {
+            return emitted;
+        };
+        let direct = self.direct_irradiance(
+            surface.position,
+            surface.geometric_normal,
+            surface.shading_normal,
+            surface.triangle,
+            emitter_samples,
+            rng,
+        );
+        emitted + surface.albedo * (direct + indirect_irradiance) * (1.0 / PI)
+    }
+
     /// Emitted radiance of the hit towards the viewer: the material's emission on the side it
     /// emits from, zero otherwise.
     #[inline]

@@ -292,12 +292,17 @@ pub fn render_final(
             }
         }
     }
+    let hit_shading = if options.tracer == Tracer::Hybrid {
+        device.hit_shading(scene, baked, index)?
+    } else {
+        None
+    };
     let first = Instant::now();
     let warm = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
     if filtered {
         device.trace(&field, warm, &options.tracer.options())?;
     } else {
-        device.trace_with(scene, &field, warm, options.tracer)?;
+        device.trace_with(scene, &field, warm, options.tracer, hit_shading.as_ref())?;
     }
     times.first_dispatch_ms += first.elapsed().as_secs_f64() * 1e3;
     let traced = if filtered {
@@ -324,8 +329,13 @@ pub fn render_final(
             timing: probe_trace_gpu::Timing { wall, gpu },
         }
     } else {
-        let mut output =
-            device.trace_with(scene, &field, &order.apply(&trace_rays), options.tracer)?;
+        let mut output = device.trace_with(
+            scene,
+            &field,
+            &order.apply(&trace_rays),
+            options.tracer,
+            hit_shading.as_ref(),
+        )?;
         output.results = order.restore(output.results);
         output
     };

@@ -489,7 +489,8 @@ pub enum Tracer {
     HiZ,
     /// Exact hits from the scene's BVH (on the CPU here), radiance from the probes
     /// ([`probe_trace_gpu::Tracer::look_up`] on the device), bounded below by the hit's own
-    /// emission.
+    /// emission; where a bake's irradiance probes are at hand ([`Device::hit_shading`]), hits
+    /// no probe shows are shaded with them and exact direct light.
     Hybrid,
 }
 
@@ -520,6 +521,22 @@ impl Tracer {
         }
     }
 }
+
+/// How the hybrid answers a hit that no probe faces: the hit shaded with the bake's
+/// irradiance probes for the light around it and exact shadow rays for the light sources
+/// ([`Shader::radiance_with_indirect`]), where the light-field probes hold nothing of that
+/// surface's side. Made by [`Device::hit_shading`].
+pub struct HitShading<'s> {
+    shader: Shader<'s>,
+    irradiance: AnyIrradiance,
+    /// Emitter samples per shaded hit (the emissive triangles' direct light).
+    pub emitter_samples: u32,
+    /// Seeds the emitter samples (per ray).
+    pub seed: u64,
+}
+
+/// Random-number stream of the hybrid's shaded hits.
+const HIT_SHADING_STREAM: u64 = 0x4859_4252;
 
 /// The GPU tracer when an adapter exists, else the CPU twin (same algorithm, same answers).
 pub struct Device {
@@ -598,7 +615,9 @@ impl Device {
     /// up in the probes that see them. The hybrid's results carry the BVH's `t` and position,
     /// never less radiance than the hit's material emits towards the ray (the probes' filtered
     /// read would blur an emitter's edge into its darker surround), and its wall time covers
-    /// both halves (no device time is reported for it).
+    /// both halves (no device time is reported for it). With `shading`, a hit that no probe
+    /// shows (UNKNOWN) is shaded instead ([`HitShading`]: direct light with shadow rays, the
+    /// irradiance probes for the rest), not estimated from nearby texels of its surface.
     ///
     /// # Errors
     /// [`EvalError::Trace`].
@@ -608,6 +627,7 @@ impl Device {
         field: &AnyField,
         rays: &[TraceRay],
         tracer: Tracer,
+        shading: Option<&HitShading<'_>>,
     ) -> Result<TraceOutput, EvalError> {
         let options = tracer.options();
         if tracer != Tracer::Hybrid {
@@ -642,11 +662,88 @@ impl Device {
                 result.radiance = result.radiance.max(emitted);
             }
         }
+        if let Some(shading) = shading {
+            self.shade_unanswered_hits(shading, &hits, &casts, &mut output.results)?;
+        }
         output.timing = probe_trace_gpu::Timing {
             wall: start.elapsed(),
             gpu: None,
         };
         Ok(output)
+    }
+
+    /// What the hybrid needs to shade the hits no probe faces ([`HitShading`]): `baked`'s
+    /// irradiance probes, blended over `index`'s Delaunay tetrahedralization (else its regular
+    /// grid), and a shader of `scene` under the bake's lights. `None` when the probes span no
+    /// volume and form no grid (nothing to blend over).
+    ///
+    /// # Errors
+    /// [`EvalError::Upload`], or the shader's error for a bake whose environment the scene
+    /// cannot take.
+    pub fn hit_shading<'s>(
+        &mut self,
+        scene: &'s Scene,
+        baked: &ProbeBake,
+        index: &BuiltIndex,
+    ) -> Result<Option<HitShading<'s>>, EvalError> {
+        let interpolation = match (index.index.tetrahedralization.as_ref(), index.grid) {
+            (Some(tetrahedra), _) => Interpolation::Delaunay(tetrahedra),
+            (None, Some(grid)) => Interpolation::Grid(grid),
+            (None, None) => return Ok(None),
+        };
+        let irradiance = self.upload_irradiance(baked, &interpolation)?;
+        let shader = Shader::new(scene, *baked.environment(), baked.settings().bounces)?;
+        Ok(Some(HitShading {
+            shader,
+            irradiance,
+            emitter_samples: 16,
+            seed: 0,
+        }))
+    }
+
+    /// Replaces the radiance of the hybrid's answers that no probe shows (UNKNOWN) by the
+    /// hit shaded with `shading`.
+    fn shade_unanswered_hits(
+        &mut self,
+        shading: &HitShading<'_>,
+        hits: &[Option<probe_scene::Hit>],
+        casts: &[Ray],
+        results: &mut [RayResult],
+    ) -> Result<(), EvalError> {
+        let mut unseen = Vec::new();
+        let mut points = Vec::new();
+        for (i, ((result, hit), ray)) in results.iter_mut().zip(hits).zip(casts).enumerate() {
+            let Some(hit) = hit else { continue };
+            if result.status != probe_trace_gpu::RayStatus::Unknown {
+                continue;
+            }
+            match shading.shader.visible_normals(hit, -ray.direction) {
+                Some((_, shading_normal)) => {
+                    unseen.push(i);
+                    points.push(ShadingPoint::new(hit.position, shading_normal));
+                }
+                // The back of a single-sided surface reflects nothing.
+                None => result.radiance = shading.shader.emission(hit, -ray.direction),
+            }
+        }
+        if unseen.is_empty() {
+            return Ok(());
+        }
+        let shaded =
+            self.shade_diffuse(&shading.irradiance, &points, &DiffuseOptions::default())?;
+        for (&i, indirect) in unseen.iter().zip(&shaded.results) {
+            let hit = hits[i].as_ref().expect("a hit");
+            let mut rng =
+                probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
+            results[i].radiance = shading.shader.radiance_with_indirect(
+                hit,
+                -casts[i].direction,
+                indirect.irradiance,
+                shading.emitter_samples,
+                &mut rng,
+            );
+        }
+        Ok(())
     }
 
     /// Uploads a bake's irradiance probes (irradiance and distance moments) for diffuse
@@ -733,8 +830,13 @@ pub fn trace_only(
     // Warm up: the first dispatch compiles the pipeline (lavapipe: seconds without Mesa's
     // shader cache, ~0.1 s with it).
     let warm = tiled.len().min(256);
-    device.trace_with(scene, &field, &tiled[..warm], tracer)?;
-    let mut output = device.trace_with(scene, &field, &tiled, tracer)?;
+    let shading = if tracer == Tracer::Hybrid {
+        device.hit_shading(scene, baked, index)?
+    } else {
+        None
+    };
+    device.trace_with(scene, &field, &tiled[..warm], tracer, shading.as_ref())?;
+    let mut output = device.trace_with(scene, &field, &tiled, tracer, shading.as_ref())?;
     output.results = order.restore(output.results);
     let image = view.image_of(&output.results)?;
     Ok(Some(TracedView {

@@ -1,6 +1,7 @@
 //! The hybrid tracer (exact BVH hits, radiance looked up in the probes): what it answers on an
 //! emitter is never below the emitter's own radiance, even where the probes' filtered read
-//! blurs the emitter's edge into the darker ceiling around it. Runs on the CPU twin.
+//! blurs the emitter's edge into the darker ceiling around it; what no probe shows is shaded
+//! with the irradiance probes and exact direct light. Runs on the CPU twin.
 
 use glam::Vec3;
 use probe_capture::{BakeSettings, Sampling, bake, no_progress};
@@ -50,7 +51,7 @@ fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
         }
     }
     let output = device
-        .trace_with(&scene, &field, &rays, Tracer::Hybrid)
+        .trace_with(&scene, &field, &rays, Tracer::Hybrid, None)
         .unwrap();
     let casts: Vec<Ray> = rays
         .iter()
@@ -79,5 +80,94 @@ fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
     assert!(
         on_emitter > 100 && off_emitter > 100,
         "{on_emitter} / {off_emitter}"
+    );
+}
+
+/// Hits that no probe shows (the look-up's UNKNOWN) are shaded: exact direct light with shadow
+/// rays and the bake's irradiance probes for the rest, instead of the radiance of nearby texels
+/// of their surface. Four probes under the Cornell box's ceiling, rays from the front of the
+/// box in every direction (seeded): over the hits no probe shows, the squared error against a
+/// 64-sample path-traced truth falls from 3.17 to 0.21 (526 of 4,000). Two probes span no volume
+/// and form no grid: nothing to blend, no shading.
+#[test]
+fn the_hybrid_shades_the_hits_no_probe_shows() {
+    use probe_capture::{Rng, Shader};
+    let scene = Scene::builtin("cornell").unwrap();
+    let bounds = scene.bounds();
+    let at = |x: f32, y: f32, z: f32| bounds.min + bounds.size() * Vec3::new(x, y, z);
+    let positions = vec![
+        at(0.25, 0.8, 0.3),
+        at(0.75, 0.9, 0.3),
+        at(0.3, 0.85, 0.75),
+        at(0.7, 0.8, 0.7),
+    ];
+    let settings = BakeSettings {
+        resolution: 32,
+        sampling: Sampling::fixed(4),
+        seed: 5,
+        ..BakeSettings::default()
+    };
+    let baked = bake(&scene, &positions, &settings, &no_progress).unwrap();
+    let index = build_index(&scene, baked.positions(), 5, None, 0).unwrap();
+    let mut device = Device::cpu();
+    let selection = Selection::Svo.of(&index).unwrap();
+    let field = device.upload(&light_field(&baked), &selection).unwrap();
+    let shading = device
+        .hit_shading(&scene, &baked, &index)
+        .unwrap()
+        .expect("four probes span a tetrahedron");
+
+    let origin = at(0.5, 0.3, 0.1);
+    let mut rng = Rng::for_key(11, &[]);
+    let rays: Vec<TraceRay> = (0..4000)
+        .map(|_| {
+            let u = rng.next_vec2();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * u.y;
+            TraceRay::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect();
+    let plain = device
+        .trace_with(&scene, &field, &rays, Tracer::Hybrid, None)
+        .unwrap();
+    let shaded = device
+        .trace_with(&scene, &field, &rays, Tracer::Hybrid, Some(&shading))
+        .unwrap();
+    let shader = Shader::new(&scene, *baked.environment(), settings.bounces).unwrap();
+    let (mut unseen, mut se_before, mut se_after) = (0usize, 0.0f64, 0.0f64);
+    for (i, (p, s)) in plain.results.iter().zip(&shaded.results).enumerate() {
+        assert_eq!(p.status, s.status);
+        if p.status != probe_trace_gpu::RayStatus::Unknown {
+            assert_eq!(p.radiance, s.radiance, "only what no probe shows is shaded");
+            continue;
+        }
+        let ray = Ray::new(Vec3::from(rays[i].origin), Vec3::from(rays[i].direction));
+        let hit = scene
+            .closest_hit(&ray, f32::INFINITY)
+            .expect("a closed box");
+        let mut rng = Rng::for_key(12, &[i as u64]);
+        let truth = (0..64)
+            .map(|_| shader.outgoing_radiance(&hit, -ray.direction, &mut rng))
+            .sum::<Vec3>()
+            / 64.0;
+        unseen += 1;
+        se_before += f64::from((p.radiance - truth).length_squared());
+        se_after += f64::from((s.radiance - truth).length_squared());
+    }
+    eprintln!(
+        "{unseen} of {} hits no probe shows: squared error {se_before:.3} before shading, {se_after:.3} after",
+        rays.len()
+    );
+    assert!(unseen >= 30, "{unseen}");
+    assert!(se_after < 0.5 * se_before, "{se_after} against {se_before}");
+
+    let two = bake(&scene, &positions[..2], &settings, &no_progress).unwrap();
+    let two_index = build_index(&scene, two.positions(), 5, None, 0).unwrap();
+    assert!(
+        device
+            .hit_shading(&scene, &two, &two_index)
+            .unwrap()
+            .is_none()
     );
 }

@@ -389,18 +389,23 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             .collect();
         // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
         // cache); time it apart and the trace on the second.
+        let hit_shading = if tracer == Tracer::Hybrid {
+            device.hit_shading(&scene, &baked, &index)?
+        } else {
+            None
+        };
         let first_start = Instant::now();
         let warm_up = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
         if args.filtered {
             device.trace(&field, warm_up, &cone)?;
         } else {
-            device.trace_with(&scene, &field, warm_up, tracer)?;
+            device.trace_with(&scene, &field, warm_up, tracer, hit_shading.as_ref())?;
         }
         let first_dispatch_ms = first_start.elapsed().as_secs_f64() * 1e3;
         let mut output = if args.filtered {
             device.trace(&field, &trace_rays, &cone)?
         } else {
-            device.trace_with(&scene, &field, &trace_rays, tracer)?
+            device.trace_with(&scene, &field, &trace_rays, tracer, hit_shading.as_ref())?
         };
         output.results = order.restore(output.results);
         let summary = TraceSummary::of(&output.results);
