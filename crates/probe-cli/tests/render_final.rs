@@ -223,3 +223,45 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
         assert_refused(name, &extra, "--interleave");
     }
 }
+
+/// `--tracer shaded` answers every ray from the BVH (the hit shaded with direct light and the
+/// irradiance probes; no light-field probe read: no fetches, nothing UNKNOWN), and is refused
+/// with `--filtered` in one line naming the flag.
+#[test]
+fn the_shaded_tracer_answers_every_ray_from_the_bvh() {
+    let root = tempfile::tempdir().unwrap();
+    let bake = small_cornell_bake(root.path());
+    let out = root.path().join("shaded.exr");
+    let output = probes(&[
+        "render",
+        bake.to_str().unwrap(),
+        "--tracer",
+        "shaded",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let log = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(log.contains("unknown 0.00 %"), "{log}");
+    assert!(log.contains("0.0 texel fetches"), "{log}");
+    assert!(out.exists());
+    let refused = probes(&[
+        "render",
+        bake.to_str().unwrap(),
+        "--tracer",
+        "shaded",
+        "--filtered",
+        "--roughness",
+        "0.3",
+        "--out",
+        root.path().join("refused.exr").to_str().unwrap(),
+    ]);
+    let message = stderr(&refused);
+    assert!(!refused.status.success());
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(message.contains("--filtered"), "{message}");
+}

@@ -157,6 +157,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 &rays,
                 Tracer::HiZ,
                 Selection::Grid,
+                None,
             )?
             .ok_or("no grid selection")?;
             images.push(traced.image);

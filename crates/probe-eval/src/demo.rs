@@ -317,7 +317,7 @@ impl DemoReport {
         }
         let _ = writeln!(
             text,
-            "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}; the hybrid's is its wall time, the BVH's closest hits on the CPU and the look-up together.",
+            "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}; the hybrid's and the shaded hits' are wall time: the BVH's closest hits on the CPU with the look-up, or with the shadow rays and the irradiance probes.",
             self.reference_seconds,
             if self.device.starts_with("gpu") {
                 "GPU timestamps on the device above"
@@ -505,10 +505,17 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             let previews = baked.write_previews(0, out)?;
             files.extend([previews.radiance, previews.normal, previews.distance]);
         }
+        // The BVH tracers' shading of hits the light field does not answer, for each bake.
+        let shading = device.hit_shading(&scene, &baked, &index)?;
+        let second_shading = device.hit_shading(&scene, &second, &index)?;
         for selection in [Selection::Grid, Selection::Svo] {
-            // The light-field tracers and the hybrid (the BVH's hits, the probes' radiance):
-            // what a renderer that can trace rays would do with the same probes.
-            for tracer in Tracer::WITH_HYBRID {
+            // The light-field tracers, the hybrid (the BVH's hits, the probes' radiance): what a
+            // renderer that can trace rays would do with the same probes, and the BVH's hits
+            // shaded as DDGI would (direct light, irradiance probes; no selection, so once).
+            for tracer in Tracer::WITH_BVH {
+                if tracer == Tracer::Shaded && selection != Selection::Svo {
+                    continue;
+                }
                 let Some(traced) = trace_only(
                     &mut device,
                     &scene,
@@ -518,6 +525,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
                     &rays,
                     tracer,
                     selection,
+                    shading.as_ref(),
                 )?
                 else {
                     continue;
@@ -531,6 +539,7 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
                     &rays,
                     tracer,
                     selection,
+                    second_shading.as_ref(),
                 )?
                 else {
                     continue;

@@ -62,7 +62,8 @@ pub enum SpecularMode {
     /// One ray per pixel along the lobe's dominant direction whose radiance is read from the
     /// probes' prefiltered GGX levels at the cone's footprint
     /// ([`probe_capture::filtered_specular_rays`]; [`crate::glossy::GLOSSY_LEVELS`] levels):
-    /// no noise, a bias where the lobe straddles geometry. Not with [`Tracer::Hybrid`].
+    /// no noise, a bias where the lobe straddles geometry. Not with [`Tracer::Hybrid`] or
+    /// [`Tracer::Shaded`].
     Filtered,
 }
 
@@ -229,12 +230,12 @@ pub fn render_final(
 
     // Specular: the GGX lobe's rays through the light field.
     let filtered = options.specular == SpecularMode::Filtered;
-    if filtered && options.tracer == Tracer::Hybrid {
+    if filtered && options.tracer.uses_bvh() {
         return Err(EvalError::InvalidSetting {
             parameter: "specular",
             value: "filtered".into(),
-            reason: "the hybrid tracer reads no prefiltered levels; use hi-Z or two-level, or \
-                     stochastic specular rays"
+            reason: "the hybrid and shaded tracers read no prefiltered levels; use hi-Z or \
+                     two-level, or stochastic specular rays"
                 .into(),
         });
     }
@@ -292,7 +293,7 @@ pub fn render_final(
             }
         }
     }
-    let hit_shading = if options.tracer == Tracer::Hybrid {
+    let hit_shading = if options.tracer.uses_bvh() {
         device.hit_shading(scene, baked, index)?
     } else {
         None

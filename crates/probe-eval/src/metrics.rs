@@ -88,12 +88,13 @@ impl<'a> Footprints<'a> {
         }
     }
 
-    /// [`texel_footprint`] (0 for no probe or one out of range).
+    /// [`texel_footprint`] ([`EXACT_HIT_TOLERANCE`] for no probe or one out of range: an
+    /// answer no probe gave is right only where it is the exact hit, up to rounding).
     pub fn at(&self, probe: Option<u32>, hit: &Hit) -> f32 {
         let texel_angle = 2.0 * std::f32::consts::PI.sqrt() / self.resolution.max(1) as f32;
         probe
             .and_then(|p| self.positions.get(p as usize))
-            .map_or(0.0, |position| {
+            .map_or(EXACT_HIT_TOLERANCE, |position| {
                 let to_hit = hit.position - *position;
                 let distance = to_hit.length();
                 let cosine = if distance > 0.0 {
@@ -106,9 +107,13 @@ impl<'a> Footprints<'a> {
     }
 }
 
+/// How far apart two casts of one ray against the BVH may put its hit (metres): the
+/// position an answer without a probe (the shaded BVH hits) must match.
+pub const EXACT_HIT_TOLERANCE: f32 = 1e-4;
+
 /// The size of the answering probe's texel at the true hit: the texel's angular size (a sphere
 /// of 4π cut into `resolution²` texels) times the distance, over the cosine of incidence
-/// (at least 0.2). 0 when no probe answered.
+/// (at least 0.2). [`EXACT_HIT_TOLERANCE`] when no probe answered.
 pub fn texel_footprint(baked: &ProbeBake, probe: Option<u32>, hit: &Hit) -> f32 {
     Footprints::of(baked).at(probe, hit)
 }

@@ -258,8 +258,9 @@ impl EvalConfig {
                 "two-level" => Ok(Tracer::TwoLevel),
                 "hiz" => Ok(Tracer::HiZ),
                 "hybrid" => Ok(Tracer::Hybrid),
+                "shaded" => Ok(Tracer::Shaded),
                 other => Err(self.invalid(format!(
-                    "unknown tracer {other:?} (expected two-level, hiz or hybrid)"
+                    "unknown tracer {other:?} (expected two-level, hiz, hybrid or shaded)"
                 ))),
             })
             .collect()
@@ -1110,6 +1111,12 @@ pub fn run_sweep(
             };
             let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
             let view_proxy_error = proxy.as_ref().map(|p| p.error(baked.positions()));
+            // The BVH tracers' shading of hits the light field does not answer.
+            let shading = if tracers.iter().any(|t| t.uses_bvh()) {
+                device.hit_shading(&scene, &baked, &index)?
+            } else {
+                None
+            };
             for (v, view) in views.iter().enumerate() {
                 for &selection in &selections {
                     for &tracer in &tracers {
@@ -1122,6 +1129,7 @@ pub fn run_sweep(
                             &rays[v],
                             tracer,
                             selection,
+                            shading.as_ref(),
                         )?
                         else {
                             continue;

@@ -31,6 +31,9 @@ pub enum TracerArg {
     TwoLevel,
     /// Geometry from the scene's BVH, radiance from the probes that see each hit.
     Hybrid,
+    /// Geometry from the scene's BVH, each hit shaded with exact direct light and the
+    /// irradiance probes (DDGI's answer to a ray-traced reflection; no light-field probe read).
+    Shaded,
 }
 
 /// Selections on the command line.
@@ -289,7 +292,10 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         } else {
             probe_capture::Reflection::Mirror
         };
-        if args.filtered && (args.roughness <= 0.0 || matches!(args.tracer, TracerArg::Hybrid)) {
+        if args.filtered
+            && (args.roughness <= 0.0
+                || matches!(args.tracer, TracerArg::Hybrid | TracerArg::Shaded))
+        {
             return Err(CliError::InvalidArgument {
                 parameter: "--filtered",
                 value: format!("roughness {}, tracer {:?}", args.roughness, args.tracer),
@@ -362,6 +368,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::Hiz => Tracer::HiZ,
             TracerArg::TwoLevel => Tracer::TwoLevel,
             TracerArg::Hybrid => Tracer::Hybrid,
+            TracerArg::Shaded => Tracer::Shaded,
         };
         let field = if args.filtered {
             device.upload_with(
@@ -389,7 +396,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             .collect();
         // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
         // cache); time it apart and the trace on the second.
-        let hit_shading = if tracer == Tracer::Hybrid {
+        let hit_shading = if tracer.uses_bvh() {
             device.hit_shading(&scene, &baked, &index)?
         } else {
             None
@@ -588,6 +595,7 @@ fn final_component(
             TracerArg::Hiz => Tracer::HiZ,
             TracerArg::TwoLevel => Tracer::TwoLevel,
             TracerArg::Hybrid => Tracer::Hybrid,
+            TracerArg::Shaded => Tracer::Shaded,
         },
         selection,
         blend,
