@@ -792,8 +792,10 @@ impl Device {
         }))
     }
 
-    /// Replaces the radiance of the hybrid's answers that no probe shows (UNKNOWN) by the
-    /// hit shaded with `shading`.
+    /// Replaces the radiance of the answers that no probe shows (UNKNOWN: the hybrid's
+    /// unshown hits, every hit of the shaded tracer) by the hit shaded with `shading` (on
+    /// one thread: the shadow rays and light samples per hit on the CPU, the irradiance probes
+    /// on the device).
     fn shade_unanswered_hits(
         &mut self,
         shading: &HitShading<'_>,

@@ -4,10 +4,31 @@
 //! with the irradiance probes and exact direct light. Runs on the CPU twin.
 
 use glam::Vec3;
-use probe_capture::{BakeSettings, Sampling, bake, no_progress};
-use probe_eval::pipeline::{Device, Selection, Tracer, build_index, light_field};
+use probe_capture::{BakeSettings, ProbeBake, Sampling, bake, no_progress};
+use probe_eval::pipeline::{BuiltIndex, Device, Selection, Tracer, build_index, light_field};
 use probe_scene::{Ray, Scene};
-use probe_trace_gpu::TraceRay;
+use probe_trace_gpu::{AnyField, TraceRay};
+
+/// `positions` in the built-in Cornell box baked at 32² (4 samples per texel, `seed`),
+/// indexed, and uploaded to the CPU twin with octree candidates.
+fn cornell_field(
+    scene: &Scene,
+    positions: &[Vec3],
+    seed: u64,
+) -> (ProbeBake, BuiltIndex, Device, AnyField) {
+    let settings = BakeSettings {
+        resolution: 32,
+        sampling: Sampling::fixed(4),
+        seed,
+        ..BakeSettings::default()
+    };
+    let baked = bake(scene, positions, &settings, &no_progress).unwrap();
+    let index = build_index(scene, baked.positions(), 5, None, 0).unwrap();
+    let mut device = Device::cpu();
+    let selection = Selection::Svo.of(&index).unwrap();
+    let field = device.upload(&light_field(&baked), &selection).unwrap();
+    (baked, index, device, field)
+}
 
 #[test]
 fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
@@ -19,17 +40,7 @@ fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
             bounds.min + bounds.size() * (0.25 + 0.5 * corner)
         })
         .collect();
-    let settings = BakeSettings {
-        resolution: 32,
-        sampling: Sampling::fixed(4),
-        seed: 3,
-        ..BakeSettings::default()
-    };
-    let baked = bake(&scene, &positions, &settings, &no_progress).unwrap();
-    let index = build_index(&scene, baked.positions(), 5, None, 0).unwrap();
-    let mut device = Device::cpu();
-    let selection = Selection::Svo.of(&index).unwrap();
-    let field = device.upload(&light_field(&baked), &selection).unwrap();
+    let (_, _, mut device, field) = cornell_field(&scene, &positions, 3);
 
     // Rays from the floor's centre up across the ceiling: a fan dense enough that many end
     // within a probe texel of the light's edge.
@@ -101,17 +112,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
         at(0.3, 0.85, 0.75),
         at(0.7, 0.8, 0.7),
     ];
-    let settings = BakeSettings {
-        resolution: 32,
-        sampling: Sampling::fixed(4),
-        seed: 5,
-        ..BakeSettings::default()
-    };
-    let baked = bake(&scene, &positions, &settings, &no_progress).unwrap();
-    let index = build_index(&scene, baked.positions(), 5, None, 0).unwrap();
-    let mut device = Device::cpu();
-    let selection = Selection::Svo.of(&index).unwrap();
-    let field = device.upload(&light_field(&baked), &selection).unwrap();
+    let (baked, index, mut device, field) = cornell_field(&scene, &positions, 5);
     let shading = device
         .hit_shading(&scene, &baked, &index)
         .unwrap()
@@ -134,7 +135,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
     let shaded = device
         .trace_with(&scene, &field, &rays, Tracer::Hybrid, Some(&shading))
         .unwrap();
-    let shader = Shader::new(&scene, *baked.environment(), settings.bounces).unwrap();
+    let shader = Shader::new(&scene, *baked.environment(), baked.settings().bounces).unwrap();
     let (mut unseen, mut se_before, mut se_after) = (0usize, 0.0f64, 0.0f64);
     for (i, (p, s)) in plain.results.iter().zip(&shaded.results).enumerate() {
         assert_eq!(p.status, s.status);
@@ -162,7 +163,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
     assert!(unseen >= 30, "{unseen}");
     assert!(se_after < 0.5 * se_before, "{se_after} against {se_before}");
 
-    let two = bake(&scene, &positions[..2], &settings, &no_progress).unwrap();
+    let two = bake(&scene, &positions[..2], baked.settings(), &no_progress).unwrap();
     let two_index = build_index(&scene, two.positions(), 5, None, 0).unwrap();
     assert!(
         device
