@@ -21,6 +21,7 @@ use probe_trace_gpu::{
     Interpolation, IrradianceField, LightField, ProbeSelection, RayResult, ShadingPoint,
     SurfaceQuery, TraceMethod, TraceOptions, TraceOutput, TraceRay, TraceSummary,
 };
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::EvalError;
@@ -793,9 +794,9 @@ impl Device {
     }
 
     /// Replaces the radiance of the answers that no probe shows (UNKNOWN: the hybrid's
-    /// unshown hits, every hit of the shaded tracer) by the hit shaded with `shading` (on
-    /// one thread: the shadow rays and light samples per hit on the CPU, the irradiance probes
-    /// on the device).
+    /// unshown hits, every hit of the shaded tracer) by the hit shaded with `shading` (the
+    /// shadow rays and light samples on all CPU threads, the irradiance probes on the
+    /// device).
     fn shade_unanswered_hits(
         &mut self,
         shading: &HitShading<'_>,
@@ -831,17 +832,26 @@ impl Device {
                 .collect(),
             None => vec![Vec3::ZERO; points.len()],
         };
-        for (&i, indirect) in unseen.iter().zip(&indirect) {
-            let hit = hits[i].as_ref().expect("a hit");
-            let mut rng =
-                probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
-            results[i].radiance = shading.shader.radiance_with_indirect(
-                hit,
-                -casts[i].direction,
-                *indirect,
-                shading.emitter_samples,
-                &mut rng,
-            );
+        // Each hit's light samples are seeded by its ray's index: the same answers on any
+        // number of threads.
+        let shaded: Vec<Vec3> = unseen
+            .par_iter()
+            .zip(&indirect)
+            .map(|(&i, indirect)| {
+                let hit = hits[i].as_ref().expect("a hit");
+                let mut rng =
+                    probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
+                shading.shader.radiance_with_indirect(
+                    hit,
+                    -casts[i].direction,
+                    *indirect,
+                    shading.emitter_samples,
+                    &mut rng,
+                )
+            })
+            .collect();
+        for (&i, radiance) in unseen.iter().zip(shaded) {
+            results[i].radiance = radiance;
         }
         Ok(())
     }
