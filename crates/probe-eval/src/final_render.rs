@@ -293,11 +293,7 @@ pub fn render_final(
             }
         }
     }
-    let hit_shading = if options.tracer.uses_bvh() {
-        device.hit_shading(scene, baked, index)?
-    } else {
-        None
-    };
+    let hit_shading = device.hit_shading_for(options.tracer, scene, baked, index)?;
     let first = Instant::now();
     let warm = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
     if filtered {

@@ -678,7 +678,7 @@ impl Device {
                 .zip(&hits)
                 .map(|(ray, hit)| match hit {
                     Some(hit) => RayResult {
-                        status: probe_trace_gpu::RayStatus::Unknown,
+                        status: probe_trace_gpu::RayStatus::Hit,
                         t: hit.t,
                         position: hit.position,
                         normal: hit.geometric_normal,
@@ -699,13 +699,8 @@ impl Device {
                     },
                 })
                 .collect();
-            // Every hit is shaded (marked UNKNOWN only for that), then reported as a hit.
-            self.shade_unanswered_hits(shading, &hits, &casts, &mut results)?;
-            for (result, hit) in results.iter_mut().zip(&hits) {
-                if hit.is_some() {
-                    result.status = probe_trace_gpu::RayStatus::Hit;
-                }
-            }
+            let every_hit: Vec<usize> = (0..hits.len()).filter(|&i| hits[i].is_some()).collect();
+            self.shade_hits(shading, &hits, &casts, &every_hit, &mut results)?;
             return Ok(TraceOutput {
                 results,
                 timing: probe_trace_gpu::Timing {
@@ -738,7 +733,14 @@ impl Device {
             }
         }
         if let Some(shading) = shading {
-            self.shade_unanswered_hits(shading, &hits, &casts, &mut output.results)?;
+            // What no probe shows (UNKNOWN) is shaded.
+            let unshown: Vec<usize> = (0..hits.len())
+                .filter(|&i| {
+                    hits[i].is_some()
+                        && output.results[i].status == probe_trace_gpu::RayStatus::Unknown
+                })
+                .collect();
+            self.shade_hits(shading, &hits, &casts, &unshown, &mut output.results)?;
         }
         output.timing = probe_trace_gpu::Timing {
             wall: start.elapsed(),
@@ -793,31 +795,49 @@ impl Device {
         }))
     }
 
-    /// Replaces the radiance of the answers that no probe shows (UNKNOWN: the hybrid's
-    /// unshown hits, every hit of the shaded tracer) by the hit shaded with `shading` (the
-    /// shadow rays and light samples on all CPU threads, the irradiance probes on the
+    /// [`Self::hit_shading`] where `tracer` casts rays against the BVH ([`Tracer::uses_bvh`]),
+    /// else `None` (the light-field tracers shade nothing).
+    ///
+    /// # Errors
+    /// As [`Self::hit_shading`].
+    pub fn hit_shading_for<'s>(
+        &mut self,
+        tracer: Tracer,
+        scene: &'s Scene,
+        baked: &ProbeBake,
+        index: &BuiltIndex,
+    ) -> Result<Option<HitShading<'s>>, EvalError> {
+        if tracer.uses_bvh() {
+            self.hit_shading(scene, baked, index)
+        } else {
+            Ok(None)
+        }
+    }
+
+    /// Replaces the radiance of the answers at `which` (indices of rays that hit: the
+    /// hybrid's unshown hits, every hit of the shaded tracer) by the hit shaded with `shading`
+    /// (the shadow rays and light samples on all CPU threads, the irradiance probes on the
     /// device).
-    fn shade_unanswered_hits(
+    fn shade_hits(
         &mut self,
         shading: &HitShading<'_>,
         hits: &[Option<probe_scene::Hit>],
         casts: &[Ray],
+        which: &[usize],
         results: &mut [RayResult],
     ) -> Result<(), EvalError> {
         let mut unseen = Vec::new();
         let mut points = Vec::new();
-        for (i, ((result, hit), ray)) in results.iter_mut().zip(hits).zip(casts).enumerate() {
-            let Some(hit) = hit else { continue };
-            if result.status != probe_trace_gpu::RayStatus::Unknown {
-                continue;
-            }
-            match shading.shader.visible_normals(hit, -ray.direction) {
+        for &i in which {
+            let hit = hits[i].as_ref().expect("only rays that hit are shaded");
+            let towards_viewer = -casts[i].direction;
+            match shading.shader.visible_normals(hit, towards_viewer) {
                 Some((_, shading_normal)) => {
                     unseen.push(i);
                     points.push(ShadingPoint::new(hit.position, shading_normal));
                 }
                 // The back of a single-sided surface reflects nothing.
-                None => result.radiance = shading.shader.emission(hit, -ray.direction),
+                None => results[i].radiance = shading.shader.emission(hit, towards_viewer),
             }
         }
         if unseen.is_empty() {
@@ -1034,11 +1054,7 @@ pub fn trace_view(
     tracer: Tracer,
     selection: Selection,
 ) -> Result<Option<(TraceMetrics, Image)>, EvalError> {
-    let shading = if tracer.uses_bvh() {
-        device.hit_shading(scene, baked, index)?
-    } else {
-        None
-    };
+    let shading = device.hit_shading_for(tracer, scene, baked, index)?;
     let Some(traced) = trace_only(
         device,
         scene,

@@ -396,11 +396,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             .collect();
         // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
         // cache); time it apart and the trace on the second.
-        let hit_shading = if tracer.uses_bvh() {
-            device.hit_shading(&scene, &baked, &index)?
-        } else {
-            None
-        };
+        let hit_shading = device.hit_shading_for(tracer, &scene, &baked, &index)?;
         let first_start = Instant::now();
         let warm_up = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
         if args.filtered {

@@ -1882,9 +1882,6 @@ fn load_ray(index: u32) -> TraceRay {
     return TraceRay(bitcast<vec3<f32>>(a.xyz), bitcast<f32>(a.w), bitcast<vec3<f32>>(b.xyz), bitcast<f32>(b.w));
 }
 
-// The radiance of one surface point from the probes that see it (src/cpu/mod.rs
-// look_up_point): the hybrid tracer's second half. The query is read from the ray binding
-// as raw words: position, packed normal, direction, surface flag.
 // The two candidates whose texel in a point's direction came nearest to showing it, by the
 // relative gap between the texel's distance and the point's, the best first
 // (src/cpu/mod.rs NearMisses).
@@ -1948,6 +1945,9 @@ fn nearest_surface_texel(probe: u32, cell: vec2<u32>, v: vec3<f32>, normal: vec3
     return result;
 }
 
+// The radiance of one surface point from the probes that see it (src/cpu/mod.rs
+// look_up_point): the hybrid tracer's second half. The query is read from the ray binding
+// as raw words: position, packed normal, direction, surface flag.
 fn look_up_point(index: u32) -> RayRecord {
     fetches = 0u;
     let a = ray_words[2u * index];
