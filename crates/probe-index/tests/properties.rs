@@ -310,7 +310,11 @@ fn check_walk(t: &Tetrahedralization, seed: u64) -> Result<(), TestCaseError> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 400,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+        ..ProptestConfig::default()
+    })]
 
     /// The tetrahedralization of any probe set is valid and Delaunay, or refused with the
     /// error that names what the set really is (checked by brute force).
@@ -396,7 +400,11 @@ fn room_with_boxes(boxes: &[([f32; 3], [f32; 3])]) -> Soup {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 24,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+        ..ProptestConfig::default()
+    })]
 
     /// With seed 000's rules to the letter (visibility from the voxel centre, no surface shell,
     /// no merging of unseen voxels), the octree's merged, packed layout answers every lookup

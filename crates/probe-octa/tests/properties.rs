@@ -61,7 +61,11 @@ fn seam_point() -> impl Strategy<Value = (Vec2, Vec3)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 1000, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 1000,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+        ..ProptestConfig::default()
+    })]
 
     /// Any finite non-zero vector encodes into the square and decodes to its own direction,
     /// whatever its length (the encoder rescales; only the direction matters).
@@ -170,7 +174,11 @@ proptest! {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 300,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+        ..ProptestConfig::default()
+    })]
 
     /// Bilinear sampling through the padding is within a texel's worth of gradient of a smooth
     /// function everywhere, so across the seams too; the two sides of an outer edge, a

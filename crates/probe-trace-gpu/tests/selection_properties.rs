@@ -142,7 +142,11 @@ mod boxes;
 use boxes::Boxes;
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 48,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+        ..ProptestConfig::default()
+    })]
 
     /// Regular grids of any shape and spacing: the twin's cage order starts where
     /// `ProbeGrid::select` does.
