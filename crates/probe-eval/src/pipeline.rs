@@ -553,7 +553,7 @@ pub struct HitShading<'s> {
     irradiance: Option<AnyIrradiance>,
     /// Emitter samples per shaded hit (the emissive triangles' direct light).
     pub emitter_samples: u32,
-    /// Seeds the emitter samples (per ray).
+    /// Seeds the emitter samples (per ray); [`Device::hit_shading`] takes the bake's seed.
     pub seed: u64,
 }
 
@@ -791,7 +791,9 @@ impl Device {
             shader,
             irradiance,
             emitter_samples: 16,
-            seed: 0,
+            // The bake's seed: two bakes with different seeds then differ by the light
+            // samples too, and the demo's bake noise (half their images' MSE) holds both.
+            seed: settings.seed,
         }))
     }
 
