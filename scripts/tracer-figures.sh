@@ -2,11 +2,12 @@
 # The Sponza glossy images of README's "A tracer that answers": 64 probes at the cell centres
 # of the atrium region (docs/tracer/sponza_region_grid.json), baked at 256² with the default
 # adaptive sampling; the path-traced reference at 32 spp; the light-field tracer (hi-Z, grid
-# cage) and the hybrid; tone-mapped MSE, FLIP and a side-by-side PNG.
+# cage), the hybrid, the shaded hits and the split (which bakes the reflected light again at
+# the same positions); tone-mapped MSE, FLIP and a side-by-side PNG.
 # Set OLD_PROBES to a `probes` binary built from 43f542d to add the "before" column (it reads
 # format-2 bakes: the script gives it a copy of the bake labelled version 2; the geometry
 # file's extra distance-range channels are ignored by that reader).
-# Output: ${1:-tracer-figures}/. About 10 minutes on 2 cores (the bake is most of it).
+# Output: ${1:-tracer-figures}/. About 15 minutes on 2 cores (the two bakes are most of it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
@@ -26,7 +27,7 @@ if [ -n "${OLD_PROBES:-}" ]; then
         --tracer hiz --out "$out/before.exr" --png "$out/before.png"
     renders+=("before=$out/before.exr")
 fi
-for tracer in hiz hybrid; do
+for tracer in hiz hybrid shaded split; do
     $probes render "$out/bake" --scene "$scene" --camera CameraMain --select grid \
         --tracer "$tracer" --out "$out/$tracer.exr" --png "$out/$tracer.png"
     renders+=("$tracer=$out/$tracer.exr")

@@ -84,6 +84,27 @@ pub struct BakeSettings {
     /// smoothed radiance; [`ProbeSampling::noise`] stays the noise before it. Finite, 0 to 8.
     /// Default 0 (measured in BENCHMARKS.md, "Radiance smoothing").
     pub denoise: f32,
+    /// What the radiance maps hold. Default [`BakedRadiance::Outgoing`], what the light-field
+    /// tracers read; [`BakedRadiance::Indirect`] for a renderer that adds the light sources'
+    /// direct light at its hits with shadow rays of its own.
+    pub radiance: BakedRadiance,
+}
+
+/// What a bake's radiance maps hold ([`BakeSettings::radiance`]). The derived maps (pyramid,
+/// moments, irradiance, surfels) are made from them either way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BakedRadiance {
+    /// All the radiance leaving the surface a texel sees towards the probe: emission, direct
+    /// light and bounces ([`Shader::outgoing_radiance`]).
+    #[default]
+    Outgoing,
+    /// The light that surface reflects from the sky and from the surfaces around it, without
+    /// its emission and the light sources' direct light ([`Shader::indirect_radiance`]): a
+    /// renderer that finds its hits exactly (a BVH) and casts shadow rays there adds those
+    /// itself ([`Shader::radiance_with_reflected`]), drawing the sun's shadow edges that a
+    /// texel would blur. Such a bake's irradiance maps hold the light those indirect
+    /// radiances carry (one bounce of it), not a renderer's diffuse light.
+    Indirect,
 }
 
 /// How many radiance samples each texel of a bake takes.
@@ -198,6 +219,7 @@ impl Default for BakeSettings {
             filter_source_resolution: 128,
             surfel_resolution: 8,
             denoise: 0.0,
+            radiance: BakedRadiance::Outgoing,
         }
     }
 }
@@ -1197,6 +1219,7 @@ impl TexelSums {
     fn add(
         &mut self,
         shader: &Shader<'_>,
+        content: BakedRadiance,
         origin: Vec3,
         seed: u64,
         probe: usize,
@@ -1218,7 +1241,11 @@ impl TexelSums {
                 origin,
                 direction: probe_octa::decode(octa),
             };
-            let (hit, radiance) = shader.trace(&ray, &mut sampler);
+            let (hit, radiance) = match content {
+                BakedRadiance::Outgoing => shader.trace(&ray, &mut sampler),
+                // Nothing emitted is in the sample to leave out afterwards.
+                BakedRadiance::Indirect => (None, shader.trace_indirect(&ray, &mut sampler).1),
+            };
             self.sums[replicate as usize] += radiance;
             if let Some(hit) = hit {
                 self.emitted += shader.emission(&hit, -ray.direction);
@@ -1489,6 +1516,7 @@ fn radiance_pass(
                         let to = counts.map_or(sampling.samples_per_texel, |c| c[iy * nu + ix]);
                         texel.add(
                             shader,
+                            settings.radiance,
                             origin,
                             settings.seed,
                             probe,

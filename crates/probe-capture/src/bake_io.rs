@@ -12,7 +12,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::atomic;
 use crate::bake::{
-    BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, ProbeBake, ProbeSampling, ProbeStats,
+    BakeSettings, BakedRadiance, MAX_BAKE_RESOLUTION, MISS_DISTANCE, ProbeBake, ProbeSampling,
+    ProbeStats,
 };
 use crate::environment::Environment;
 use crate::exr_io::{self, ExrLayer, ExrRead};
@@ -316,6 +317,40 @@ struct ManifestSettings {
     /// Absent in bakes saved before radiance smoothing existed: off.
     #[serde(default)]
     denoise: f32,
+    /// Absent for the outgoing radiance (every bake saved before the indirect one existed).
+    #[serde(default, skip_serializing_if = "is_outgoing")]
+    radiance: ManifestRadiance,
+}
+
+/// [`BakedRadiance`] in a manifest.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+enum ManifestRadiance {
+    #[default]
+    Outgoing,
+    Indirect,
+}
+
+fn is_outgoing(radiance: &ManifestRadiance) -> bool {
+    *radiance == ManifestRadiance::Outgoing
+}
+
+impl From<BakedRadiance> for ManifestRadiance {
+    fn from(r: BakedRadiance) -> Self {
+        match r {
+            BakedRadiance::Outgoing => ManifestRadiance::Outgoing,
+            BakedRadiance::Indirect => ManifestRadiance::Indirect,
+        }
+    }
+}
+
+impl From<ManifestRadiance> for BakedRadiance {
+    fn from(r: ManifestRadiance) -> Self {
+        match r {
+            ManifestRadiance::Outgoing => BakedRadiance::Outgoing,
+            ManifestRadiance::Indirect => BakedRadiance::Indirect,
+        }
+    }
 }
 
 #[derive(Serialize, Deserialize, Clone, Debug, PartialEq)]
@@ -726,6 +761,7 @@ impl ProbeBake {
                 filter_source_resolution: s.filter_source_resolution,
                 surfel_resolution: s.surfel_resolution,
                 denoise: s.denoise,
+                radiance: s.radiance.into(),
             },
             environment: ManifestEnvironment::from(&self.environment),
             moments_max_distance: self.moments_max_distance,
@@ -1185,6 +1221,7 @@ fn check_manifest(m: &Manifest) -> Result<CheckedManifest, String> {
         filter_source_resolution: s.filter_source_resolution,
         surfel_resolution: s.surfel_resolution,
         denoise: s.denoise,
+        radiance: s.radiance.into(),
     };
     settings.validate().map_err(|e| e.to_string())?;
     if m.resolution != s.resolution || m.resolution > MAX_BAKE_RESOLUTION {

@@ -106,8 +106,8 @@ mod shading;
 mod shard;
 
 pub use bake::{
-    BakeError, BakeSettings, MAX_BAKE_RESOLUTION, MISS_DISTANCE, NOISE_REPLICATES, ProbeBake,
-    ProbeGeometry, ProbeSampling, ProbeStats, Progress, RANGE_SAMPLES, Sampling, bake,
+    BakeError, BakeSettings, BakedRadiance, MAX_BAKE_RESOLUTION, MISS_DISTANCE, NOISE_REPLICATES,
+    ProbeBake, ProbeGeometry, ProbeSampling, ProbeStats, Progress, RANGE_SAMPLES, Sampling, bake,
     bake_memory_estimate, bake_with_limit, capture_geometry, no_progress,
 };
 pub use bake_io::{BAKE_FORMAT_VERSION, BakeLoadError, BakeSaveError, MANIFEST_FILE};

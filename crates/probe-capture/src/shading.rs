@@ -281,7 +281,55 @@ impl<'s> Shader<'s> {
         towards_viewer: Vec3,
         rng: &mut S,
     ) -> Vec3 {
-        let mut radiance = self.emission(hit, towards_viewer);
+        self.path_radiance(hit, towards_viewer, false, rng)
+    }
+
+    /// [`Self::trace`] with [`Self::indirect_radiance`] at the hit: the radiance a bake of
+    /// [`BakedRadiance::Indirect`](crate::BakedRadiance::Indirect) stores.
+    pub fn trace_indirect<S: Sampler + ?Sized>(
+        &self,
+        ray: &Ray,
+        rng: &mut S,
+    ) -> (Option<Hit>, Vec3) {
+        match self.scene.closest_hit(ray, f32::INFINITY) {
+            Some(hit) => {
+                let radiance = self.indirect_radiance(&hit, -ray.direction, rng);
+                (Some(hit), radiance)
+            }
+            None => (None, self.background(ray.direction)),
+        }
+    }
+
+    /// Radiance leaving the hit towards the viewer less its emission and less the light
+    /// sources' direct light at the hit (the punctual lights, the sun and the emissive
+    /// triangles: what [`Self::direct_irradiance`] computes with shadow rays): the light the
+    /// hit reflects from the sky and from the surfaces around it, with the configured bounces.
+    /// A renderer that casts shadow rays at its hits adds the rest itself
+    /// ([`Self::radiance_with_reflected`]); its expectation plus theirs is
+    /// [`Self::outgoing_radiance`]'s. With `bounces = 0` it is the sky's light alone.
+    pub fn indirect_radiance<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        rng: &mut S,
+    ) -> Vec3 {
+        self.path_radiance(hit, towards_viewer, true, rng)
+    }
+
+    /// The path behind [`Self::outgoing_radiance`]; `indirect` leaves out the hit's emission,
+    /// its light sources' samples and the emission its bounce ray meets (their MIS partner).
+    fn path_radiance<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        indirect: bool,
+        rng: &mut S,
+    ) -> Vec3 {
+        let mut radiance = if indirect {
+            Vec3::ZERO
+        } else {
+            self.emission(hit, towards_viewer)
+        };
         let mut throughput = Vec3::ONE;
         let mut current = *hit;
         let mut towards = towards_viewer;
@@ -291,7 +339,17 @@ impl<'s> Shader<'s> {
                 break;
             }
             let last = bounce >= self.bounces;
-            radiance += throughput * self.direct_light(&surface, last, rng);
+            // The light sources at the hit itself are left out of an indirect path.
+            let first_indirect = indirect && bounce == 0;
+            let mut direct = if first_indirect {
+                Vec3::ZERO
+            } else {
+                self.light_sources(&surface, last, rng)
+            };
+            if last && !self.sky_is_black {
+                direct += self.sky_light(&surface, rng);
+            }
+            radiance += throughput * direct;
             if last {
                 break;
             }
@@ -312,7 +370,10 @@ impl<'s> Shader<'s> {
             let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
             match self.scene.closest_hit(&ray, f32::INFINITY) {
                 Some(next) => {
-                    radiance += throughput * self.emission_by_bounce(&next, direction, bsdf_pdf);
+                    if !first_indirect {
+                        radiance +=
+                            throughput * self.emission_by_bounce(&next, direction, bsdf_pdf);
+                    }
                     current = next;
                     towards = -direction;
                     bounce += 1;
@@ -422,6 +483,35 @@ impl<'s> Shader<'s> {
         emitted + surface.albedo * (direct + indirect_irradiance) * (1.0 / PI)
     }
 
+    /// Radiance leaving the hit towards the viewer when the light it reflects from its
+    /// surroundings and the sky is known as the radiance `reflected` (from probes holding
+    /// [`Self::indirect_radiance`], for instance): emission plus the Lambertian albedo over π
+    /// times the direct irradiance of the light sources ([`Self::direct_irradiance`], exact
+    /// shadow rays, `emitter_samples` emitter samples) plus `reflected`. The back of a
+    /// single-sided material gives its emission only (zero).
+    pub fn radiance_with_reflected<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        reflected: Vec3,
+        emitter_samples: u32,
+        rng: &mut S,
+    ) -> Vec3 {
+        let emitted = self.emission(hit, towards_viewer);
+        let Some(surface) = self.surface(hit, towards_viewer) else {
+            return emitted;
+        };
+        let direct = self.direct_irradiance(
+            surface.position,
+            surface.geometric_normal,
+            surface.shading_normal,
+            surface.triangle,
+            emitter_samples,
+            rng,
+        );
+        emitted + surface.albedo * direct * (1.0 / PI) + reflected
+    }
+
     /// Emitted radiance of the hit towards the viewer: the material's emission on the side it
     /// emits from, zero otherwise.
     #[inline]
@@ -468,17 +558,16 @@ impl<'s> Shader<'s> {
         })
     }
 
-    /// Reflected direct light at a surface: punctual and directional lights, the sun, one
-    /// emitter sample and, at the last point of a path (`last`), one sky shadow ray. Where
-    /// the path goes on (`!last`), the emitter sample carries its MIS weight against the
-    /// bounce ray.
-    fn direct_light<S: Sampler + ?Sized>(
+    /// Reflected direct light of the light sources at a surface: punctual and directional
+    /// lights, the sun and one emitter sample. Where the path goes on (`!last`), the emitter
+    /// sample carries its MIS weight against the bounce ray. At the last point of a path the
+    /// sky's light follows ([`Self::sky_light`]).
+    fn light_sources<S: Sampler + ?Sized>(
         &self,
         surface: &Surface,
         last: bool,
         rng: &mut S,
     ) -> Vec3 {
-        let with_sky = last;
         let brdf = surface.albedo * (1.0 / PI);
         // Sum of irradiance-like terms (radiance × cosine / pdf), multiplied by the BRDF once.
         let mut incident = Vec3::ZERO;
@@ -491,18 +580,21 @@ impl<'s> Shader<'s> {
         if !self.emitters.triangles.is_empty() {
             incident += self.emitter_sample(surface, !last, rng);
         }
-        let mut radiance = brdf * incident;
-        if with_sky && !self.sky_is_black {
-            let direction = cosine_hemisphere(surface.shading_normal, rng.next_vec2());
-            if direction.dot(surface.geometric_normal) > 0.0 {
-                let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
-                if !self.scene.occluded(&ray, f32::INFINITY) {
-                    // Cosine sampling: BRDF × L × cos / pdf = albedo × L.
-                    radiance += surface.albedo * self.background(direction);
-                }
+        brdf * incident
+    }
+
+    /// The sky's reflected light at the last point of a path: one cosine-distributed shadow
+    /// ray (the caller skips it under a black sky).
+    fn sky_light<S: Sampler + ?Sized>(&self, surface: &Surface, rng: &mut S) -> Vec3 {
+        let direction = cosine_hemisphere(surface.shading_normal, rng.next_vec2());
+        if direction.dot(surface.geometric_normal) > 0.0 {
+            let ray = Ray::from_surface(surface.position, surface.geometric_normal, direction);
+            if !self.scene.occluded(&ray, f32::INFINITY) {
+                // Cosine sampling: BRDF × L × cos / pdf = albedo × L.
+                return surface.albedo * self.background(direction);
             }
         }
-        radiance
+        Vec3::ZERO
     }
 
     /// Irradiance from a punctual light (colour × intensity × attenuation × cos θ / r²), with

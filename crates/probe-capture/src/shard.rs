@@ -437,8 +437,9 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
         filter_source_resolution,
         surfel_resolution,
         denoise,
+        radiance,
     } = a;
-    let fields: [(&str, String, String); 13] = [
+    let fields: [(&str, String, String); 14] = [
         (
             "resolution",
             format!("{resolution}"),
@@ -495,6 +496,11 @@ fn settings_difference(a: &BakeSettings, b: &BakeSettings) -> Option<String> {
             "denoise",
             format!("{:?}", denoise.to_bits()),
             format!("{:?}", b.denoise.to_bits()),
+        ),
+        (
+            "radiance",
+            format!("{radiance:?}"),
+            format!("{:?}", b.radiance),
         ),
     ];
     fields

@@ -10,8 +10,8 @@ use std::f64::consts::PI;
 
 use glam::Vec3;
 use probe_capture::{
-    BakeSettings, Component, Environment, RenderSettings, Rng, Sampling, Shader, bake, no_progress,
-    render,
+    BakeSettings, BakedRadiance, Component, Environment, RenderSettings, Rng, Sampling, Shader,
+    bake, no_progress, render,
 };
 use probe_scene::{Camera, Material, Ray, Scene, Triangle};
 
@@ -347,6 +347,86 @@ fn furnace_box_bake() {
                 standard_error < 0.03 * expected,
                 "albedo {albedo}, {bounces} bounces: standard error {standard_error} of \
                  {expected}"
+            );
+        }
+    }
+}
+
+/// A bake of the reflected light alone ([`BakedRadiance::Indirect`]) in the furnace box holds
+/// the closed form less the emission and the direct light (`E + aE`): `E Σ_{2 ≤ k ≤ bounces+1}
+/// a^k`, zero without bounces; and a hit shaded with exact direct light plus that reflected
+/// light ([`Shader::radiance_with_reflected`]) gives the whole closed form back.
+#[test]
+fn furnace_box_indirect_bake() {
+    let emission = 1.2f32;
+    for albedo in [0.3f32, 0.7] {
+        let scene = furnace_box(albedo, emission);
+        for bounces in [0u32, 1, 3] {
+            let settings = BakeSettings {
+                resolution: 32,
+                sampling: Sampling::fixed(8),
+                bounces,
+                seed: 9,
+                radiance: BakedRadiance::Indirect,
+                ..Default::default()
+            };
+            let probe = Vec3::new(0.1, 0.2, -0.15);
+            let probes = bake(&scene, &[probe], &settings, &no_progress).unwrap();
+            let map = probes.radiance_map(0).unwrap();
+            let distances = probes.distance_map(0).unwrap();
+            let layout = map.layout();
+            let values: Vec<f64> = (0..32)
+                .flat_map(|iy| (0..32).map(move |ix| (ix, iy)))
+                .filter(|&(ix, iy)| {
+                    let point =
+                        probe + layout.texel_direction(ix, iy) * distances.get(ix, iy).unwrap();
+                    point.abs().to_array().iter().filter(|&&c| c > 0.6).count() == 1
+                })
+                .map(|(ix, iy)| f64::from(map.get(ix, iy).unwrap().x))
+                .collect();
+            assert!(values.len() > 200, "{} texels", values.len());
+            let (mean, standard_error) = mean_and_standard_error(&values);
+            let (a, e) = (f64::from(albedo), f64::from(emission));
+            let expected = furnace_radiance(a, e, bounces) - e - a * e;
+            if bounces == 0 {
+                assert_eq!(mean, 0.0, "albedo {albedo}: no bounce, no reflected light");
+                continue;
+            }
+            assert!(
+                (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
+                "albedo {albedo}, {bounces} bounces: {mean} vs {expected} \
+                 (standard error {standard_error})"
+            );
+            assert!(
+                standard_error < 0.05 * expected,
+                "albedo {albedo}, {bounces} bounces: standard error {standard_error} of \
+                 {expected}"
+            );
+            // The rest with shadow rays: emission plus direct light plus the reflected light
+            // given is the whole closed form.
+            let shader = Shader::new(&scene, Environment::BLACK, bounces).unwrap();
+            let ray = Ray::new(Vec3::new(0.1, -0.05, 0.2), -Vec3::Z);
+            let hit = scene.closest_hit(&ray, f32::INFINITY).unwrap();
+            let mut rng = Rng::for_key(11, &[u64::from(bounces)]);
+            let estimates: Vec<f64> = (0..2000)
+                .map(|_| {
+                    let reflected = Vec3::splat(expected as f32);
+                    let shaded = shader.radiance_with_reflected(
+                        &hit,
+                        -ray.direction,
+                        reflected,
+                        16,
+                        &mut rng,
+                    );
+                    f64::from(shaded.x)
+                })
+                .collect();
+            let (mean, standard_error) = mean_and_standard_error(&estimates);
+            let whole = furnace_radiance(a, e, bounces);
+            assert!(
+                (mean - whole).abs() <= 5.0 * standard_error + 1e-3 * whole,
+                "albedo {albedo}, {bounces} bounces: shaded {mean} vs {whole} \
+                 (standard error {standard_error})"
             );
         }
     }

@@ -265,3 +265,55 @@ fn the_shaded_tracer_answers_every_ray_from_the_bvh() {
     assert_eq!(message.trim().lines().count(), 1, "{message}");
     assert!(message.contains("--filtered"), "{message}");
 }
+
+/// `--tracer split` renders the glossy component from a second bake of the reflected light at
+/// the bake's positions, lit at each BVH hit by shadow rays: an image of its own (neither the
+/// hybrid's nor the shaded hits'), the same bytes again for the same bake, and the final
+/// image refuses it in one line naming the tracer.
+#[test]
+fn the_split_tracer_renders_the_glossy_component_only() {
+    let root = tempfile::tempdir().unwrap();
+    let bake = small_cornell_bake(root.path());
+    let render = |name: &str, tracer: &str, extra: &[&str]| {
+        let out = root.path().join(format!("{name}.exr"));
+        let mut args = vec![
+            "render",
+            bake.to_str().unwrap(),
+            "--tracer",
+            tracer,
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        (probes(&args), out)
+    };
+    let mut images = Vec::new();
+    for (name, tracer) in [
+        ("split", "split"),
+        ("split-again", "split"),
+        ("hybrid", "hybrid"),
+        ("shaded", "shaded"),
+    ] {
+        let (output, out) = render(name, tracer, &[]);
+        assert!(output.status.success(), "{name}: {}", stderr(&output));
+        images.push(std::fs::read(out).unwrap());
+    }
+    assert_eq!(images[0], images[1], "the split is not deterministic");
+    assert_ne!(
+        images[0], images[2],
+        "the split rendered the hybrid's image"
+    );
+    assert_ne!(
+        images[0], images[3],
+        "the split rendered the shaded hits' image"
+    );
+    let (refused, _) = render("split-final", "split", &["--component", "final"]);
+    let message = stderr(&refused);
+    assert!(!refused.status.success());
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(message.contains("split"), "{message}");
+}

@@ -317,7 +317,7 @@ impl DemoReport {
         }
         let _ = writeln!(
             text,
-            "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}; the hybrid's and the shaded hits' are wall time: the BVH's closest hits on the CPU with the look-up, or with the shadow rays and the irradiance probes.",
+            "\nReference (path traced against the BVH, same rays): {:.2} s. Trace times are {}; the hybrid's, the shaded hits' and the split's are wall time: the BVH's closest hits on the CPU with the look-up, the shadow rays or both.",
             self.reference_seconds,
             if self.device.starts_with("gpu") {
                 "GPU timestamps on the device above"
@@ -505,13 +505,15 @@ pub fn run_demo(options: &DemoOptions, log: &dyn Fn(&str)) -> Result<DemoReport,
             let previews = baked.write_previews(0, out)?;
             files.extend([previews.radiance, previews.normal, previews.distance]);
         }
-        // The BVH tracers' shading of hits the light field does not answer, for each bake.
-        let shading = device.hit_shading(&scene, &baked, &index)?;
-        let second_shading = device.hit_shading(&scene, &second, &index)?;
+        // The BVH tracers' shading of hits the light field does not answer, for each bake,
+        // with the bake of the light the surfaces reflect that the split reads.
+        let shading = device.hit_shading_for(Tracer::Split, &scene, &baked, &index)?;
+        let second_shading = device.hit_shading_for(Tracer::Split, &scene, &second, &index)?;
         for selection in [Selection::Grid, Selection::Svo] {
             // The light-field tracers, the hybrid (the BVH's hits, the probes' radiance): what a
             // renderer that can trace rays would do with the same probes, and the BVH's hits
-            // shaded as DDGI would (direct light, irradiance probes; no selection, so once).
+            // shaded as DDGI would (direct light, irradiance probes; no selection, so once), and
+            // the split (direct light with shadow rays, the probes' reflected light).
             for tracer in Tracer::WITH_BVH {
                 if tracer == Tracer::Shaded && selection != Selection::Svo {
                     continue;

@@ -229,6 +229,16 @@ pub fn render_final(
     }
 
     // Specular: the GGX lobe's rays through the light field.
+    if options.tracer == Tracer::Split {
+        return Err(EvalError::InvalidSetting {
+            parameter: "tracer",
+            value: "split".into(),
+            reason: "the final image's specular rays read the bake's own radiance, and the \
+                     split reads a second bake of reflected light only; use hybrid, shaded, \
+                     hi-Z or two-level here (the split answers the glossy component)"
+                .into(),
+        });
+    }
     let filtered = options.specular == SpecularMode::Filtered;
     if filtered && options.tracer.uses_bvh() {
         return Err(EvalError::InvalidSetting {

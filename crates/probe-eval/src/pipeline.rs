@@ -9,8 +9,8 @@ use std::time::Instant;
 
 use glam::Vec3;
 use probe_capture::{
-    BakeSettings, Environment, EvaluationRay, Image, MISS_DISTANCE, ProbeBake, Progress,
-    ReferenceSample, Reflection, Sampling, Shader, TileOrder, accumulate_rays, bake,
+    BakeSettings, BakedRadiance, Environment, EvaluationRay, Image, MISS_DISTANCE, ProbeBake,
+    Progress, ReferenceSample, Reflection, Sampling, Shader, TileOrder, accumulate_rays, bake,
     reflection_rays, render_gbuffer, trace_reference,
 };
 use probe_index::{IndexOptions, IndexReport, ProbeGrid, ProbeIndex, SvoOptions};
@@ -498,6 +498,13 @@ pub enum Tracer {
     /// the surroundings reflect ([`HitShading`]); misses read the environment. No light-field
     /// probe is read: the baseline for what their radiance adds.
     Shaded,
+    /// Exact hits from the scene's BVH, the light split: emission and the light sources'
+    /// direct light with shadow rays (as [`Tracer::Shaded`]), and the light the hit reflects
+    /// from its surroundings and the sky looked up in light-field probes that hold only that
+    /// ([`BakedRadiance::Indirect`], baked at the bake's positions and settings by
+    /// [`Device::hit_shading_for`]); hits no probe shows are shaded as the shaded tracer's.
+    /// The sun's shadow edges are drawn by shadow rays, the rest at texel resolution.
+    Split,
 }
 
 impl Tracer {
@@ -507,18 +514,19 @@ impl Tracer {
     /// The light-field tracers and the hybrid.
     pub const WITH_HYBRID: [Tracer; 3] = [Tracer::TwoLevel, Tracer::HiZ, Tracer::Hybrid];
 
-    /// The light-field tracers and both tracers that cast rays against the BVH.
-    pub const WITH_BVH: [Tracer; 4] = [
+    /// The light-field tracers and the three tracers that cast rays against the BVH.
+    pub const WITH_BVH: [Tracer; 5] = [
         Tracer::TwoLevel,
         Tracer::HiZ,
         Tracer::Hybrid,
         Tracer::Shaded,
+        Tracer::Split,
     ];
 
-    /// Whether the tracer casts its rays against the scene's BVH (the hybrid and the shaded
-    /// hits) rather than through the light field.
+    /// Whether the tracer casts its rays against the scene's BVH (the hybrid, the shaded hits
+    /// and the split) rather than through the light field.
     pub fn uses_bvh(self) -> bool {
-        matches!(self, Tracer::Hybrid | Tracer::Shaded)
+        matches!(self, Tracer::Hybrid | Tracer::Shaded | Tracer::Split)
     }
 
     /// The name used on the command line and in reports.
@@ -528,6 +536,7 @@ impl Tracer {
             Tracer::HiZ => "hiz",
             Tracer::Hybrid => "hybrid",
             Tracer::Shaded => "shaded",
+            Tracer::Split => "split",
         }
     }
 
@@ -536,7 +545,7 @@ impl Tracer {
         TraceOptions {
             method: match self {
                 Tracer::TwoLevel => TraceMethod::TwoLevel,
-                Tracer::HiZ | Tracer::Hybrid | Tracer::Shaded => TraceMethod::HiZ,
+                Tracer::HiZ | Tracer::Hybrid | Tracer::Shaded | Tracer::Split => TraceMethod::HiZ,
             },
             ..TraceOptions::default()
         }
@@ -555,11 +564,45 @@ pub struct HitShading<'s> {
     pub emitter_samples: u32,
     /// Seeds the emitter samples (per ray); [`Device::hit_shading`] takes the bake's seed.
     pub seed: u64,
+    /// For [`Tracer::Split`]: the bake of the light the surfaces reflect
+    /// ([`BakedRadiance::Indirect`]) at the bake's positions.
+    indirect: Option<ProbeBake>,
+}
+
+impl HitShading<'_> {
+    /// The bake of the light the surfaces reflect that [`Tracer::Split`] reads, when made
+    /// ([`Device::hit_shading_for`] with that tracer).
+    pub fn indirect_bake(&self) -> Option<&ProbeBake> {
+        self.indirect.as_ref()
+    }
 }
 
 /// Probe resolution of the bake whose irradiance shades BVH hits ([`Device::hit_shading`]):
 /// DDGI's probes trace a few hundred rays each; 32² texels hold 1,024.
 pub const HIT_SHADING_RESOLUTION: u32 = 32;
+
+/// The radiance smoothing of the bake [`Tracer::Split`] reads ([`BakeSettings::denoise`]):
+/// the light the surfaces reflect has none of the light sources' shadow edges, so the
+/// edge-preserving smoothing takes out the bake's noise (its fireflies on dark surfaces) and
+/// little else. Measured against no smoothing: Sponza's `CameraMain` 1.47e-4 → 1.40e-4
+/// (tone-mapped MSE), the image's bake noise 1.4e-5 → 6.1e-6; the demo's Cornell box
+/// 1.05–1.11e-5 → 8.7–9.2e-6 (BENCHMARKS.md, "The light split").
+pub const SPLIT_INDIRECT_DENOISE: f32 = 2.0;
+
+/// The bake [`Tracer::Split`] reads: `baked`'s positions and settings, its radiance maps
+/// holding the light the surfaces reflect ([`BakedRadiance::Indirect`]), smoothed at
+/// [`SPLIT_INDIRECT_DENOISE`].
+///
+/// # Errors
+/// [`EvalError::Bake`].
+pub fn indirect_bake(scene: &Scene, baked: &ProbeBake) -> Result<ProbeBake, EvalError> {
+    let settings = BakeSettings {
+        radiance: BakedRadiance::Indirect,
+        denoise: SPLIT_INDIRECT_DENOISE,
+        ..baked.settings().clone()
+    };
+    Ok(bake(scene, baked.positions(), &settings, &|_, _| {})?)
+}
 
 /// Random-number stream of the hybrid's shaded hits.
 const HIT_SHADING_STREAM: u64 = 0x4859_4252;
@@ -665,6 +708,21 @@ impl Device {
             .map(|r| Ray::new(Vec3::from(r.origin), Vec3::from(r.direction)))
             .collect();
         let hits = scene.closest_hits(&casts, f32::INFINITY);
+        let split = match (tracer, shading) {
+            (Tracer::Split, Some(shading)) if shading.indirect.is_some() => Some(shading),
+            (Tracer::Split, _) => {
+                return Err(EvalError::InvalidSetting {
+                    parameter: "tracer",
+                    value: "split".into(),
+                    reason: "the split reads a bake of the light the surfaces reflect and \
+                             shades with irradiance probes: make its shading with \
+                             Device::hit_shading_for(Tracer::Split, ..), which needs probes \
+                             spanning a volume or a regular grid; use hybrid"
+                        .into(),
+                });
+            }
+            _ => None,
+        };
         if tracer == Tracer::Shaded {
             let shading = shading.ok_or_else(|| EvalError::InvalidSetting {
                 parameter: "tracer",
@@ -724,12 +782,41 @@ impl Device {
         for ((result, hit), ray) in output.results.iter_mut().zip(&hits).zip(&casts) {
             if let Some(hit) = hit {
                 result.t = hit.t;
+                if split.is_some() {
+                    continue; // the probes' read is the reflected light alone
+                }
                 // What leaves a surface is at least what it emits: where the probes' filtered
                 // read blurs an emitter's edge into its darker surround, the exact hit's own
                 // emission bounds the answer from below.
                 let emitted = materials[hit.material as usize]
                     .emission_towards(hit.geometric_normal, -ray.direction);
                 result.radiance = result.radiance.max(emitted);
+            }
+        }
+        if let Some(shading) = split {
+            // The light sources' direct light with shadow rays, the probes' reflected light.
+            let shown: Vec<usize> = (0..hits.len())
+                .filter(|&i| {
+                    hits[i].is_some() && output.results[i].status == probe_trace_gpu::RayStatus::Hit
+                })
+                .collect();
+            let lit: Vec<Vec3> = shown
+                .par_iter()
+                .map(|&i| {
+                    let hit = hits[i].as_ref().expect("a hit");
+                    let mut rng =
+                        probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
+                    shading.shader.radiance_with_reflected(
+                        hit,
+                        -casts[i].direction,
+                        output.results[i].radiance,
+                        shading.emitter_samples,
+                        &mut rng,
+                    )
+                })
+                .collect();
+            for (&i, radiance) in shown.iter().zip(lit) {
+                output.results[i].radiance = radiance;
             }
         }
         if let Some(shading) = shading {
@@ -781,6 +868,7 @@ impl Device {
             let fewer = BakeSettings {
                 resolution: HIT_SHADING_RESOLUTION.min(settings.resolution),
                 bounces: settings.bounces - 1,
+                radiance: BakedRadiance::Outgoing,
                 ..settings.clone()
             };
             let shading_bake = bake(scene, baked.positions(), &fewer, &|_, _| {})?;
@@ -794,11 +882,14 @@ impl Device {
             // The bake's seed: two bakes with different seeds then differ by the light
             // samples too, and the demo's bake noise (half their images' MSE) holds both.
             seed: settings.seed,
+            indirect: None,
         }))
     }
 
     /// [`Self::hit_shading`] where `tracer` casts rays against the BVH ([`Tracer::uses_bvh`]),
-    /// else `None` (the light-field tracers shade nothing).
+    /// else `None` (the light-field tracers shade nothing). For [`Tracer::Split`] the light
+    /// field of the light the surfaces reflect is baked too ([`indirect_bake`]): a second
+    /// bake at `baked`'s positions and resolution, as long as `baked` took.
     ///
     /// # Errors
     /// As [`Self::hit_shading`].
@@ -809,10 +900,16 @@ impl Device {
         baked: &ProbeBake,
         index: &BuiltIndex,
     ) -> Result<Option<HitShading<'s>>, EvalError> {
-        if tracer.uses_bvh() {
-            self.hit_shading(scene, baked, index)
-        } else {
-            Ok(None)
+        if !tracer.uses_bvh() {
+            return Ok(None);
+        }
+        let shading = self.hit_shading(scene, baked, index)?;
+        match (tracer, shading) {
+            (Tracer::Split, Some(mut shading)) => {
+                shading.indirect = Some(indirect_bake(scene, baked)?);
+                Ok(Some(shading))
+            }
+            (_, shading) => Ok(shading),
         }
     }
 
@@ -961,7 +1058,16 @@ pub fn trace_only(
     if tracer == Tracer::Shaded && shading.is_none() {
         return Ok(None);
     }
-    let field = device.upload(&light_field(baked), &probe_selection)?;
+    // The split reads the probes of the light the surfaces reflect.
+    let read = if tracer == Tracer::Split {
+        match shading.and_then(HitShading::indirect_bake) {
+            Some(indirect) => indirect,
+            None => return Ok(None),
+        }
+    } else {
+        baked
+    };
+    let field = device.upload(&light_field(read), &probe_selection)?;
     // Traced in 8×8 pixel tiles (faster on a GPU; the answers do not depend on the order).
     let order = TileOrder::of(&view.rays, view.settings.width);
     let tiled = order.apply(rays);

@@ -259,8 +259,9 @@ impl EvalConfig {
                 "hiz" => Ok(Tracer::HiZ),
                 "hybrid" => Ok(Tracer::Hybrid),
                 "shaded" => Ok(Tracer::Shaded),
+                "split" => Ok(Tracer::Split),
                 other => Err(self.invalid(format!(
-                    "unknown tracer {other:?} (expected two-level, hiz, hybrid or shaded)"
+                    "unknown tracer {other:?} (expected two-level, hiz, hybrid, shaded or split)"
                 ))),
             })
             .collect()
@@ -1111,8 +1112,11 @@ pub fn run_sweep(
             };
             let memory = ProbeMemory::of(&baked, Tracer::HiZ.options().hiz_top_level);
             let view_proxy_error = proxy.as_ref().map(|p| p.error(baked.positions()));
-            // The BVH tracers' shading of hits the light field does not answer.
-            let shading = if tracers.iter().any(|t| t.uses_bvh()) {
+            // The BVH tracers' shading of hits the light field does not answer (with the
+            // bake of the light the surfaces reflect when the split is asked for).
+            let shading = if tracers.contains(&Tracer::Split) {
+                device.hit_shading_for(Tracer::Split, &scene, &baked, &index)?
+            } else if tracers.iter().any(|t| t.uses_bvh()) {
                 device.hit_shading(&scene, &baked, &index)?
             } else {
                 None

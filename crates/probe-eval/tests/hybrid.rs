@@ -172,3 +172,88 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
             .is_none()
     );
 }
+
+/// The split (`Tracer::Split`): the hits of the BVH lit by the light sources with shadow rays,
+/// plus the reflected light read from a second bake that holds only that. Eight probes in the
+/// Cornell box at 32² with 4 samples per texel, rays from the front of the box in every
+/// direction (seeded): over the hits a probe shows, its squared error against a 64-sample
+/// path-traced truth is below the hybrid's (whose texels blur the light's soft shadows and
+/// carry the bake's noise in the direct light too; 0.30 against 2.63 over 1,142 of 2,000
+/// hits), the same rays hit and miss, and without the second bake the split is refused.
+#[test]
+fn the_split_lights_the_hits_and_reads_the_reflected_light() {
+    use probe_capture::{Rng, Shader};
+    let scene = Scene::builtin("cornell").unwrap();
+    let bounds = scene.bounds();
+    let positions: Vec<Vec3> = (0..8)
+        .map(|i| {
+            let corner = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
+            bounds.min + bounds.size() * (0.25 + 0.5 * corner)
+        })
+        .collect();
+    let (baked, index, mut device, field) = cornell_field(&scene, &positions, 7);
+    let plain = device
+        .hit_shading(&scene, &baked, &index)
+        .unwrap()
+        .expect("eight probes span a volume");
+    let split = device
+        .hit_shading_for(Tracer::Split, &scene, &baked, &index)
+        .unwrap()
+        .expect("eight probes span a volume");
+    let indirect = split.indirect_bake().expect("the split's second bake");
+    let selection = Selection::Svo.of(&index).unwrap();
+    let indirect_field = device.upload(&light_field(indirect), &selection).unwrap();
+
+    let origin = bounds.min + bounds.size() * Vec3::new(0.5, 0.4, 0.1);
+    let mut rng = Rng::for_key(13, &[]);
+    let rays: Vec<TraceRay> = (0..2000)
+        .map(|_| {
+            let u = rng.next_vec2();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * u.y;
+            TraceRay::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect();
+    let hybrid = device
+        .trace_with(&scene, &field, &rays, Tracer::Hybrid, Some(&plain))
+        .unwrap();
+    let lit = device
+        .trace_with(&scene, &indirect_field, &rays, Tracer::Split, Some(&split))
+        .unwrap();
+    assert!(
+        device
+            .trace_with(&scene, &field, &rays, Tracer::Split, Some(&plain))
+            .is_err(),
+        "a split without its second bake"
+    );
+    let shader = Shader::new(&scene, *baked.environment(), baked.settings().bounces).unwrap();
+    let (mut shown, mut se_hybrid, mut se_split) = (0usize, 0.0f64, 0.0f64);
+    for (i, (h, s)) in hybrid.results.iter().zip(&lit.results).enumerate() {
+        assert_eq!(
+            h.status == probe_trace_gpu::RayStatus::Miss,
+            s.status == probe_trace_gpu::RayStatus::Miss
+        );
+        if h.status != probe_trace_gpu::RayStatus::Hit || s.status != h.status {
+            continue;
+        }
+        let ray = Ray::new(Vec3::from(rays[i].origin), Vec3::from(rays[i].direction));
+        let hit = scene
+            .closest_hit(&ray, f32::INFINITY)
+            .expect("a closed box");
+        let mut rng = Rng::for_key(14, &[i as u64]);
+        let truth = (0..64)
+            .map(|_| shader.outgoing_radiance(&hit, -ray.direction, &mut rng))
+            .sum::<Vec3>()
+            / 64.0;
+        shown += 1;
+        se_hybrid += f64::from((h.radiance - truth).length_squared());
+        se_split += f64::from((s.radiance - truth).length_squared());
+    }
+    eprintln!(
+        "{shown} of {} hits a probe shows: squared error {se_hybrid:.3} (hybrid), {se_split:.3} (split)",
+        rays.len()
+    );
+    assert!(shown >= 1000, "{shown}");
+    assert!(se_split < se_hybrid, "{se_split} against {se_hybrid}");
+}

@@ -34,6 +34,10 @@ pub enum TracerArg {
     /// Geometry from the scene's BVH, each hit shaded with exact direct light and the
     /// irradiance probes (DDGI's answer to a ray-traced reflection; no light-field probe read).
     Shaded,
+    /// Geometry from the scene's BVH, exact direct light with shadow rays, and the light each
+    /// hit reflects from its surroundings read from probes baked to hold only that (a second
+    /// bake at the same positions, made for this render). Glossy component only.
+    Split,
 }
 
 /// Selections on the command line.
@@ -294,7 +298,10 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         };
         if args.filtered
             && (args.roughness <= 0.0
-                || matches!(args.tracer, TracerArg::Hybrid | TracerArg::Shaded))
+                || matches!(
+                    args.tracer,
+                    TracerArg::Hybrid | TracerArg::Shaded | TracerArg::Split
+                ))
         {
             return Err(CliError::InvalidArgument {
                 parameter: "--filtered",
@@ -369,6 +376,15 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::TwoLevel => Tracer::TwoLevel,
             TracerArg::Hybrid => Tracer::Hybrid,
             TracerArg::Shaded => Tracer::Shaded,
+            TracerArg::Split => Tracer::Split,
+        };
+        // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
+        // cache); time it apart and the trace on the second.
+        let hit_shading = device.hit_shading_for(tracer, &scene, &baked, &index)?;
+        // The split reads the bake of the light the surfaces reflect.
+        let read = match hit_shading.as_ref().and_then(|s| s.indirect_bake()) {
+            Some(indirect) => indirect,
+            None => &baked,
         };
         let field = if args.filtered {
             device.upload_with(
@@ -380,7 +396,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
                 },
             )?
         } else {
-            device.upload(&light_field(&baked), &probe_selection)?
+            device.upload(&light_field(read), &probe_selection)?
         };
         let cone = TraceOptions {
             glossy_roughness: probe_eval::glossy::sub_lobe_roughness(args.roughness, args.sectors),
@@ -394,9 +410,6 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
             .collect();
-        // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
-        // cache); time it apart and the trace on the second.
-        let hit_shading = device.hit_shading_for(tracer, &scene, &baked, &index)?;
         let first_start = Instant::now();
         let warm_up = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
         if args.filtered {
@@ -592,6 +605,7 @@ fn final_component(
             TracerArg::TwoLevel => Tracer::TwoLevel,
             TracerArg::Hybrid => Tracer::Hybrid,
             TracerArg::Shaded => Tracer::Shaded,
+            TracerArg::Split => Tracer::Split,
         },
         selection,
         blend,
