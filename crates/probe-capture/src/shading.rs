@@ -263,13 +263,7 @@ impl<'s> Shader<'s> {
     /// Radiance arriving along `ray` (origin already off any surface): the shaded closest hit
     /// or the sky, with the hit.
     pub fn trace<S: Sampler + ?Sized>(&self, ray: &Ray, rng: &mut S) -> (Option<Hit>, Vec3) {
-        match self.scene.closest_hit(ray, f32::INFINITY) {
-            Some(hit) => {
-                let radiance = self.outgoing_radiance(&hit, -ray.direction, rng);
-                (Some(hit), radiance)
-            }
-            None => (None, self.background(ray.direction)),
-        }
+        self.trace_path(ray, false, rng)
     }
 
     /// Radiance leaving the hit point towards the viewer (`towards_viewer`, a unit vector from
@@ -291,9 +285,19 @@ impl<'s> Shader<'s> {
         ray: &Ray,
         rng: &mut S,
     ) -> (Option<Hit>, Vec3) {
+        self.trace_path(ray, true, rng)
+    }
+
+    /// [`Self::trace`] (`indirect`: [`Self::trace_indirect`]).
+    fn trace_path<S: Sampler + ?Sized>(
+        &self,
+        ray: &Ray,
+        indirect: bool,
+        rng: &mut S,
+    ) -> (Option<Hit>, Vec3) {
         match self.scene.closest_hit(ray, f32::INFINITY) {
             Some(hit) => {
-                let radiance = self.indirect_radiance(&hit, -ray.direction, rng);
+                let radiance = self.path_radiance(&hit, -ray.direction, indirect, rng);
                 (Some(hit), radiance)
             }
             None => (None, self.background(ray.direction)),
@@ -468,19 +472,15 @@ impl<'s> Shader<'s> {
         emitter_samples: u32,
         rng: &mut S,
     ) -> Vec3 {
-        let emitted = self.emission(hit, towards_viewer);
-        let Some(surface) = self.surface(hit, towards_viewer) else {
-            return emitted;
-        };
-        let direct = self.direct_irradiance(
-            surface.position,
-            surface.geometric_normal,
-            surface.shading_normal,
-            surface.triangle,
+        self.lit_by_sources(
+            hit,
+            towards_viewer,
             emitter_samples,
             rng,
-        );
-        emitted + surface.albedo * (direct + indirect_irradiance) * (1.0 / PI)
+            |emitted, albedo, direct| {
+                emitted + albedo * (direct + indirect_irradiance) * (1.0 / PI)
+            },
+        )
     }
 
     /// Radiance leaving the hit towards the viewer when the light it reflects from its
@@ -497,6 +497,26 @@ impl<'s> Shader<'s> {
         emitter_samples: u32,
         rng: &mut S,
     ) -> Vec3 {
+        self.lit_by_sources(
+            hit,
+            towards_viewer,
+            emitter_samples,
+            rng,
+            |emitted, albedo, direct| emitted + albedo * direct * (1.0 / PI) + reflected,
+        )
+    }
+
+    /// `light(emission, albedo, direct irradiance)` for the hit's surface as seen from
+    /// `towards_viewer` ([`Self::direct_irradiance`] with `emitter_samples`); the emission
+    /// alone for the back of a single-sided material.
+    fn lit_by_sources<S: Sampler + ?Sized>(
+        &self,
+        hit: &Hit,
+        towards_viewer: Vec3,
+        emitter_samples: u32,
+        rng: &mut S,
+        light: impl FnOnce(Vec3, Vec3, Vec3) -> Vec3,
+    ) -> Vec3 {
         let emitted = self.emission(hit, towards_viewer);
         let Some(surface) = self.surface(hit, towards_viewer) else {
             return emitted;
@@ -509,7 +529,7 @@ impl<'s> Shader<'s> {
             emitter_samples,
             rng,
         );
-        emitted + surface.albedo * direct * (1.0 / PI) + reflected
+        light(emitted, surface.albedo, direct)
     }
 
     /// Emitted radiance of the hit towards the viewer: the material's emission on the side it

@@ -302,6 +302,37 @@ fn furnace_box_reference() {
     }
 }
 
+/// One probe in the furnace box baked at 32² (8 samples per texel, `bounces`, holding
+/// `radiance`): the red radiance of the texels that see a wall away from its edges (near an
+/// edge, one-sample area lighting of the neighbouring wall is heavy-tailed, its variance
+/// growing as the inverse square of the distance to the edge, which would make the standard
+/// error itself unreliable). At least 200 of them.
+fn furnace_wall_texels(scene: &Scene, bounces: u32, radiance: BakedRadiance) -> Vec<f64> {
+    let settings = BakeSettings {
+        resolution: 32,
+        sampling: Sampling::fixed(8),
+        bounces,
+        seed: 9,
+        radiance,
+        ..Default::default()
+    };
+    let probe = Vec3::new(0.1, 0.2, -0.15);
+    let probes = bake(scene, &[probe], &settings, &no_progress).unwrap();
+    let map = probes.radiance_map(0).unwrap();
+    let distances = probes.distance_map(0).unwrap();
+    let layout = map.layout();
+    let values: Vec<f64> = (0..32)
+        .flat_map(|iy| (0..32).map(move |ix| (ix, iy)))
+        .filter(|&(ix, iy)| {
+            let point = probe + layout.texel_direction(ix, iy) * distances.get(ix, iy).unwrap();
+            point.abs().to_array().iter().filter(|&&c| c > 0.6).count() == 1
+        })
+        .map(|(ix, iy)| f64::from(map.get(ix, iy).unwrap().x))
+        .collect();
+    assert!(values.len() > 200, "{} texels", values.len());
+    values
+}
+
 /// A probe bake in the furnace box: the mean texel radiance converges to the closed form at
 /// 0, 1, 3 and 12 bounces (the last past Russian roulette's start), at two albedos.
 #[test]
@@ -310,32 +341,7 @@ fn furnace_box_bake() {
     for albedo in [0.3f32, 0.7] {
         let scene = furnace_box(albedo, emission);
         for bounces in [0u32, 1, 3, 12] {
-            let settings = BakeSettings {
-                resolution: 32,
-                sampling: Sampling::fixed(8),
-                bounces,
-                seed: 9,
-                ..Default::default()
-            };
-            let probe = Vec3::new(0.1, 0.2, -0.15);
-            let probes = bake(&scene, &[probe], &settings, &no_progress).unwrap();
-            let map = probes.radiance_map(0).unwrap();
-            let distances = probes.distance_map(0).unwrap();
-            let layout = map.layout();
-            // Texels that see a wall away from its edges: near an edge, one-sample area
-            // lighting of the neighbouring wall is heavy-tailed (its variance grows as the
-            // inverse square of the distance to the edge), which would make the standard
-            // error itself unreliable.
-            let values: Vec<f64> = (0..32)
-                .flat_map(|iy| (0..32).map(move |ix| (ix, iy)))
-                .filter(|&(ix, iy)| {
-                    let point =
-                        probe + layout.texel_direction(ix, iy) * distances.get(ix, iy).unwrap();
-                    point.abs().to_array().iter().filter(|&&c| c > 0.6).count() == 1
-                })
-                .map(|(ix, iy)| f64::from(map.get(ix, iy).unwrap().x))
-                .collect();
-            assert!(values.len() > 200, "{} texels", values.len());
+            let values = furnace_wall_texels(&scene, bounces, BakedRadiance::Outgoing);
             let (mean, standard_error) = mean_and_standard_error(&values);
             let expected = furnace_radiance(f64::from(albedo), f64::from(emission), bounces);
             assert!(
@@ -362,29 +368,7 @@ fn furnace_box_indirect_bake() {
     for albedo in [0.3f32, 0.7] {
         let scene = furnace_box(albedo, emission);
         for bounces in [0u32, 1, 3] {
-            let settings = BakeSettings {
-                resolution: 32,
-                sampling: Sampling::fixed(8),
-                bounces,
-                seed: 9,
-                radiance: BakedRadiance::Indirect,
-                ..Default::default()
-            };
-            let probe = Vec3::new(0.1, 0.2, -0.15);
-            let probes = bake(&scene, &[probe], &settings, &no_progress).unwrap();
-            let map = probes.radiance_map(0).unwrap();
-            let distances = probes.distance_map(0).unwrap();
-            let layout = map.layout();
-            let values: Vec<f64> = (0..32)
-                .flat_map(|iy| (0..32).map(move |ix| (ix, iy)))
-                .filter(|&(ix, iy)| {
-                    let point =
-                        probe + layout.texel_direction(ix, iy) * distances.get(ix, iy).unwrap();
-                    point.abs().to_array().iter().filter(|&&c| c > 0.6).count() == 1
-                })
-                .map(|(ix, iy)| f64::from(map.get(ix, iy).unwrap().x))
-                .collect();
-            assert!(values.len() > 200, "{} texels", values.len());
+            let values = furnace_wall_texels(&scene, bounces, BakedRadiance::Indirect);
             let (mean, standard_error) = mean_and_standard_error(&values);
             let (a, e) = (f64::from(albedo), f64::from(emission));
             let expected = furnace_radiance(a, e, bounces) - e - a * e;

@@ -30,6 +30,40 @@ fn cornell_field(
     (baked, index, device, field)
 }
 
+/// `count` rays from `origin` in directions uniform over the sphere (seeded).
+fn rays_in_every_direction(origin: Vec3, count: usize, seed: u64) -> Vec<TraceRay> {
+    let mut rng = probe_capture::Rng::for_key(seed, &[]);
+    (0..count)
+        .map(|_| {
+            let u = rng.next_vec2();
+            let z = 1.0 - 2.0 * u.x;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = std::f32::consts::TAU * u.y;
+            TraceRay::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
+        })
+        .collect()
+}
+
+/// The radiance arriving along `ray` (which hits: the scene is closed), the mean of 64
+/// path-traced samples (seeded by `seed` and the ray's index `i`).
+fn path_traced_truth(
+    scene: &Scene,
+    shader: &probe_capture::Shader<'_>,
+    ray: &TraceRay,
+    seed: u64,
+    i: usize,
+) -> Vec3 {
+    let ray = Ray::new(Vec3::from(ray.origin), Vec3::from(ray.direction));
+    let hit = scene
+        .closest_hit(&ray, f32::INFINITY)
+        .expect("a closed box");
+    let mut rng = probe_capture::Rng::for_key(seed, &[i as u64]);
+    (0..64)
+        .map(|_| shader.outgoing_radiance(&hit, -ray.direction, &mut rng))
+        .sum::<Vec3>()
+        / 64.0
+}
+
 #[test]
 fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
     let scene = Scene::builtin("cornell").unwrap();
@@ -102,7 +136,7 @@ fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
 /// and form no grid: nothing to blend, no shading.
 #[test]
 fn the_hybrid_shades_the_hits_no_probe_shows() {
-    use probe_capture::{Rng, Shader};
+    use probe_capture::Shader;
     let scene = Scene::builtin("cornell").unwrap();
     let bounds = scene.bounds();
     let at = |x: f32, y: f32, z: f32| bounds.min + bounds.size() * Vec3::new(x, y, z);
@@ -119,16 +153,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
         .expect("four probes span a tetrahedron");
 
     let origin = at(0.5, 0.3, 0.1);
-    let mut rng = Rng::for_key(11, &[]);
-    let rays: Vec<TraceRay> = (0..4000)
-        .map(|_| {
-            let u = rng.next_vec2();
-            let z = 1.0 - 2.0 * u.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = std::f32::consts::TAU * u.y;
-            TraceRay::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
-        })
-        .collect();
+    let rays = rays_in_every_direction(origin, 4000, 11);
     let plain = device
         .trace_with(&scene, &field, &rays, Tracer::Hybrid, None)
         .unwrap();
@@ -143,15 +168,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
             assert_eq!(p.radiance, s.radiance, "only what no probe shows is shaded");
             continue;
         }
-        let ray = Ray::new(Vec3::from(rays[i].origin), Vec3::from(rays[i].direction));
-        let hit = scene
-            .closest_hit(&ray, f32::INFINITY)
-            .expect("a closed box");
-        let mut rng = Rng::for_key(12, &[i as u64]);
-        let truth = (0..64)
-            .map(|_| shader.outgoing_radiance(&hit, -ray.direction, &mut rng))
-            .sum::<Vec3>()
-            / 64.0;
+        let truth = path_traced_truth(&scene, &shader, &rays[i], 12, i);
         unseen += 1;
         se_before += f64::from((p.radiance - truth).length_squared());
         se_after += f64::from((s.radiance - truth).length_squared());
@@ -182,7 +199,7 @@ fn the_hybrid_shades_the_hits_no_probe_shows() {
 /// hits), the same rays hit and miss, and without the second bake the split is refused.
 #[test]
 fn the_split_lights_the_hits_and_reads_the_reflected_light() {
-    use probe_capture::{Rng, Shader};
+    use probe_capture::Shader;
     let scene = Scene::builtin("cornell").unwrap();
     let bounds = scene.bounds();
     let positions: Vec<Vec3> = (0..8)
@@ -205,16 +222,7 @@ fn the_split_lights_the_hits_and_reads_the_reflected_light() {
     let indirect_field = device.upload(&light_field(indirect), &selection).unwrap();
 
     let origin = bounds.min + bounds.size() * Vec3::new(0.5, 0.4, 0.1);
-    let mut rng = Rng::for_key(13, &[]);
-    let rays: Vec<TraceRay> = (0..2000)
-        .map(|_| {
-            let u = rng.next_vec2();
-            let z = 1.0 - 2.0 * u.x;
-            let r = (1.0 - z * z).max(0.0).sqrt();
-            let phi = std::f32::consts::TAU * u.y;
-            TraceRay::new(origin, Vec3::new(r * phi.cos(), r * phi.sin(), z))
-        })
-        .collect();
+    let rays = rays_in_every_direction(origin, 2000, 13);
     let hybrid = device
         .trace_with(&scene, &field, &rays, Tracer::Hybrid, Some(&plain))
         .unwrap();
@@ -237,15 +245,7 @@ fn the_split_lights_the_hits_and_reads_the_reflected_light() {
         if h.status != probe_trace_gpu::RayStatus::Hit || s.status != h.status {
             continue;
         }
-        let ray = Ray::new(Vec3::from(rays[i].origin), Vec3::from(rays[i].direction));
-        let hit = scene
-            .closest_hit(&ray, f32::INFINITY)
-            .expect("a closed box");
-        let mut rng = Rng::for_key(14, &[i as u64]);
-        let truth = (0..64)
-            .map(|_| shader.outgoing_radiance(&hit, -ray.direction, &mut rng))
-            .sum::<Vec3>()
-            / 64.0;
+        let truth = path_traced_truth(&scene, &shader, &rays[i], 14, i);
         shown += 1;
         se_hybrid += f64::from((h.radiance - truth).length_squared());
         se_split += f64::from((s.radiance - truth).length_squared());
