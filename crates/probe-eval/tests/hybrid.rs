@@ -30,6 +30,17 @@ fn cornell_field(
     (baked, index, device, field)
 }
 
+/// Eight probes at the corners of the middle half of the scene's bounds (a 2×2×2 grid).
+fn eight_probes_inside(scene: &Scene) -> Vec<Vec3> {
+    let bounds = scene.bounds();
+    (0..8)
+        .map(|i| {
+            let corner = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
+            bounds.min + bounds.size() * (0.25 + 0.5 * corner)
+        })
+        .collect()
+}
+
 /// `count` rays from `origin` in directions uniform over the sphere (seeded).
 fn rays_in_every_direction(origin: Vec3, count: usize, seed: u64) -> Vec<TraceRay> {
     let mut rng = probe_capture::Rng::for_key(seed, &[]);
@@ -68,12 +79,7 @@ fn path_traced_truth(
 fn the_hybrid_answers_an_emitter_with_at_least_its_emission() {
     let scene = Scene::builtin("cornell").unwrap();
     let bounds = scene.bounds();
-    let positions: Vec<Vec3> = (0..8)
-        .map(|i| {
-            let corner = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
-            bounds.min + bounds.size() * (0.25 + 0.5 * corner)
-        })
-        .collect();
+    let positions = eight_probes_inside(&scene);
     let (_, _, mut device, field) = cornell_field(&scene, &positions, 3);
 
     // Rays from the floor's centre up across the ceiling: a fan dense enough that many end
@@ -202,12 +208,7 @@ fn the_split_lights_the_hits_and_reads_the_reflected_light() {
     use probe_capture::Shader;
     let scene = Scene::builtin("cornell").unwrap();
     let bounds = scene.bounds();
-    let positions: Vec<Vec3> = (0..8)
-        .map(|i| {
-            let corner = Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, (i >> 2) as f32);
-            bounds.min + bounds.size() * (0.25 + 0.5 * corner)
-        })
-        .collect();
+    let positions = eight_probes_inside(&scene);
     let (baked, index, mut device, field) = cornell_field(&scene, &positions, 7);
     let plain = device
         .hit_shading(&scene, &baked, &index)
