@@ -317,3 +317,35 @@ fn the_split_tracer_renders_the_glossy_component_only() {
     assert_eq!(message.trim().lines().count(), 1, "{message}");
     assert!(message.contains("split"), "{message}");
 }
+
+/// A bake of the reflected light alone (`BakedRadiance::Indirect`, which only the library
+/// makes) is refused by `probes render` in one line naming it, not rendered as if it held all
+/// the light.
+#[test]
+fn a_bake_of_reflected_light_only_is_refused() {
+    let root = tempfile::tempdir().unwrap();
+    let scene = probe_scene::Scene::builtin("cornell").unwrap();
+    let settings = probe_capture::BakeSettings {
+        resolution: 16,
+        sampling: probe_capture::Sampling::fixed(2),
+        radiance: probe_capture::BakedRadiance::Indirect,
+        ..Default::default()
+    };
+    let centre = scene.bounds().center();
+    let baked =
+        probe_capture::bake(&scene, &[centre], &settings, &probe_capture::no_progress).unwrap();
+    let bake = root.path().join("indirect");
+    baked.save(&bake).unwrap();
+    let refused = probes(&[
+        "render",
+        bake.to_str().unwrap(),
+        "--scene",
+        "builtin:cornell",
+        "--out",
+        root.path().join("refused.exr").to_str().unwrap(),
+    ]);
+    let message = stderr(&refused);
+    assert!(!refused.status.success());
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(message.contains("reflect"), "{message}");
+}

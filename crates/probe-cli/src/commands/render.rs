@@ -200,6 +200,20 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         ),
     )?;
     let loaded_without_check = ProbeBake::load_with_limit(&args.bake, None, limit)?;
+    if loaded_without_check.settings().radiance == probe_capture::BakedRadiance::Indirect {
+        // Every tracer here reads a bake's outgoing radiance (the split bakes its own
+        // reflected light from the bake's positions): an image of reflected light alone would
+        // pass for a render.
+        return Err(CliError::InvalidArgument {
+            parameter: "BAKE",
+            value: args.bake.display().to_string(),
+            reason:
+                "the bake holds only the light its surfaces reflect (BakedRadiance::Indirect); \
+                     render a bake of the outgoing radiance (the default of probes bake), and \
+                     use --tracer split for the light split, which makes its own"
+                    .into(),
+        });
+    }
     let scene_spec = match (&args.scene, loaded_without_check.scene_source()) {
         (Some(spec), _) => spec.clone(),
         (None, Some(source)) => source.to_owned(),
