@@ -687,6 +687,9 @@ impl Device {
     /// both halves (no device time is reported for it). With `shading`, a hit that no probe
     /// shows (UNKNOWN) is shaded instead ([`HitShading`]: direct light with shadow rays, the
     /// irradiance probes for the rest), not estimated from nearby texels of its surface.
+    /// [`Tracer::Split`] needs the `shading` of [`Self::hit_shading_for`] with that tracer,
+    /// and `field` uploaded from its [`HitShading::indirect_bake`] (as [`trace_only`] does):
+    /// the probes' read is taken as the reflected light alone.
     ///
     /// # Errors
     /// [`EvalError::Trace`].
