@@ -6,7 +6,8 @@
 mod support;
 
 use std::path::Path;
-use support::{probes, stderr};
+use std::process::Output;
+use support::{assert_refused_in_one_line, probes, stderr};
 
 /// Renders the final image of `bake` with `extra` flags and `--split` into `dir/NAME.exr`;
 /// returns the bytes of the diffuse and the specular part.
@@ -32,6 +33,25 @@ fn render_parts(bake: &Path, dir: &Path, name: &str, extra: &[&str]) -> (Vec<u8>
     assert!(output.status.success(), "{name}: {}", stderr(&output));
     let part = |part: &str| std::fs::read(dir.join(format!("{name}.{part}.exr"))).unwrap();
     (part("diffuse"), part("specular"))
+}
+
+/// `probes render BAKE --tracer TRACER` of the glossy component at 32×24 into `out`, with
+/// `extra` flags.
+fn render_glossy(bake: &Path, tracer: &str, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "render",
+        bake.to_str().unwrap(),
+        "--tracer",
+        tracer,
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    probes(&args)
 }
 
 /// A small bake of the built-in Cornell box (8 grid probes at 16²) in `dir/bake`.
@@ -147,10 +167,7 @@ fn sectors_change_a_filtered_render_and_bad_ones_are_refused() {
     // A refused render: a one-line error naming `needle`, and no file written.
     let assert_refused = |name: &str, extra: &[&str], needle: &str| {
         let (output, out) = render(name, extra);
-        assert!(!output.status.success(), "{name} was accepted");
-        let message = stderr(&output);
-        assert!(message.contains(needle), "{message}");
-        assert_eq!(message.trim().lines().count(), 1, "{message}");
+        assert_refused_in_one_line(&output, needle);
         assert!(!out.exists(), "a refused render wrote {}", out.display());
     };
     let filtered = ["--filtered", "--roughness", "0.3"];
@@ -232,38 +249,19 @@ fn the_shaded_tracer_answers_every_ray_from_the_bvh() {
     let root = tempfile::tempdir().unwrap();
     let bake = small_cornell_bake(root.path());
     let out = root.path().join("shaded.exr");
-    let output = probes(&[
-        "render",
-        bake.to_str().unwrap(),
-        "--tracer",
-        "shaded",
-        "--width",
-        "32",
-        "--height",
-        "24",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let output = render_glossy(&bake, "shaded", &out, &[]);
     let log = String::from_utf8_lossy(&output.stdout).into_owned();
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(log.contains("unknown 0.00 %"), "{log}");
     assert!(log.contains("0.0 texel fetches"), "{log}");
     assert!(out.exists());
-    let refused = probes(&[
-        "render",
-        bake.to_str().unwrap(),
-        "--tracer",
+    let refused = render_glossy(
+        &bake,
         "shaded",
-        "--filtered",
-        "--roughness",
-        "0.3",
-        "--out",
-        root.path().join("refused.exr").to_str().unwrap(),
-    ]);
-    let message = stderr(&refused);
-    assert!(!refused.status.success());
-    assert_eq!(message.trim().lines().count(), 1, "{message}");
-    assert!(message.contains("--filtered"), "{message}");
+        &root.path().join("refused.exr"),
+        &["--filtered", "--roughness", "0.3"],
+    );
+    assert_refused_in_one_line(&refused, "--filtered");
 }
 
 /// `--tracer split` renders the glossy component from a second bake of the reflected light at
@@ -276,20 +274,7 @@ fn the_split_tracer_renders_the_glossy_component_only() {
     let bake = small_cornell_bake(root.path());
     let render = |name: &str, tracer: &str, extra: &[&str]| {
         let out = root.path().join(format!("{name}.exr"));
-        let mut args = vec![
-            "render",
-            bake.to_str().unwrap(),
-            "--tracer",
-            tracer,
-            "--width",
-            "32",
-            "--height",
-            "24",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        (probes(&args), out)
+        (render_glossy(&bake, tracer, &out, extra), out)
     };
     let mut images = Vec::new();
     for (name, tracer) in [
@@ -312,10 +297,7 @@ fn the_split_tracer_renders_the_glossy_component_only() {
         "the split rendered the shaded hits' image"
     );
     let (refused, _) = render("split-final", "split", &["--component", "final"]);
-    let message = stderr(&refused);
-    assert!(!refused.status.success());
-    assert_eq!(message.trim().lines().count(), 1, "{message}");
-    assert!(message.contains("split"), "{message}");
+    assert_refused_in_one_line(&refused, "split");
 }
 
 /// A bake of the reflected light alone (`BakedRadiance::Indirect`, which only the library
@@ -344,8 +326,5 @@ fn a_bake_of_reflected_light_only_is_refused() {
         "--out",
         root.path().join("refused.exr").to_str().unwrap(),
     ]);
-    let message = stderr(&refused);
-    assert!(!refused.status.success());
-    assert_eq!(message.trim().lines().count(), 1, "{message}");
-    assert!(message.contains("reflect"), "{message}");
+    assert_refused_in_one_line(&refused, "reflect");
 }

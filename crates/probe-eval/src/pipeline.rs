@@ -577,6 +577,20 @@ impl HitShading<'_> {
     }
 }
 
+/// The bake whose probes `tracer` reads: `baked` itself, except for [`Tracer::Split`], which
+/// reads `shading`'s [`HitShading::indirect_bake`] (`None` when there is none).
+pub fn bake_read_by<'a>(
+    tracer: Tracer,
+    baked: &'a ProbeBake,
+    shading: Option<&'a HitShading<'_>>,
+) -> Option<&'a ProbeBake> {
+    if tracer == Tracer::Split {
+        shading.and_then(HitShading::indirect_bake)
+    } else {
+        Some(baked)
+    }
+}
+
 /// Probe resolution of the bake whose irradiance shades BVH hits ([`Device::hit_shading`]):
 /// DDGI's probes trace a few hundred rays each; 32² texels hold 1,024.
 pub const HIT_SHADING_RESOLUTION: u32 = 32;
@@ -606,6 +620,29 @@ pub fn indirect_bake(scene: &Scene, baked: &ProbeBake) -> Result<ProbeBake, Eval
 
 /// Random-number stream of the hybrid's shaded hits.
 const HIT_SHADING_STREAM: u64 = 0x4859_4252;
+
+/// Sets the radiance of `results[i]` for each `i` of `which` (the `k`-th) to
+/// `light(k, i, its radiance now, rng)`, on all CPU threads. Each hit's light samples are
+/// seeded by its ray's index: the same answers on any number of threads.
+fn light_hits(
+    shading: &HitShading<'_>,
+    which: &[usize],
+    results: &mut [RayResult],
+    light: impl Fn(usize, usize, Vec3, &mut probe_capture::Rng) -> Vec3 + Sync,
+) {
+    let lit: Vec<Vec3> = which
+        .par_iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let mut rng =
+                probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
+            light(k, i, results[i].radiance, &mut rng)
+        })
+        .collect();
+    for (&i, radiance) in which.iter().zip(lit) {
+        results[i].radiance = radiance;
+    }
+}
 
 /// The GPU tracer when an adapter exists, else the CPU twin (same algorithm, same answers).
 pub struct Device {
@@ -688,7 +725,7 @@ impl Device {
     /// shows (UNKNOWN) is shaded instead ([`HitShading`]: direct light with shadow rays, the
     /// irradiance probes for the rest), not estimated from nearby texels of its surface.
     /// [`Tracer::Split`] needs the `shading` of [`Self::hit_shading_for`] with that tracer,
-    /// and `field` uploaded from its [`HitShading::indirect_bake`] (as [`trace_only`] does):
+    /// and `field` uploaded from its [`HitShading::indirect_bake`] ([`bake_read_by`]):
     /// the probes' read is taken as the reflected light alone.
     ///
     /// # Errors
@@ -803,24 +840,16 @@ impl Device {
                     hits[i].is_some() && output.results[i].status == probe_trace_gpu::RayStatus::Hit
                 })
                 .collect();
-            let lit: Vec<Vec3> = shown
-                .par_iter()
-                .map(|&i| {
-                    let hit = hits[i].as_ref().expect("a hit");
-                    let mut rng =
-                        probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
-                    shading.shader.radiance_with_reflected(
-                        hit,
-                        -casts[i].direction,
-                        output.results[i].radiance,
-                        shading.emitter_samples,
-                        &mut rng,
-                    )
-                })
-                .collect();
-            for (&i, radiance) in shown.iter().zip(lit) {
-                output.results[i].radiance = radiance;
-            }
+            light_hits(shading, &shown, &mut output.results, |_, i, read, rng| {
+                let hit = hits[i].as_ref().expect("a hit");
+                shading.shader.radiance_with_reflected(
+                    hit,
+                    -casts[i].direction,
+                    read,
+                    shading.emitter_samples,
+                    rng,
+                )
+            });
         }
         if let Some(shading) = shading {
             // What no probe shows (UNKNOWN) is shaded.
@@ -954,27 +983,16 @@ impl Device {
                 .collect(),
             None => vec![Vec3::ZERO; points.len()],
         };
-        // Each hit's light samples are seeded by its ray's index: the same answers on any
-        // number of threads.
-        let shaded: Vec<Vec3> = unseen
-            .par_iter()
-            .zip(&indirect)
-            .map(|(&i, indirect)| {
-                let hit = hits[i].as_ref().expect("a hit");
-                let mut rng =
-                    probe_capture::Rng::for_key(shading.seed, &[HIT_SHADING_STREAM, i as u64]);
-                shading.shader.radiance_with_indirect(
-                    hit,
-                    -casts[i].direction,
-                    *indirect,
-                    shading.emitter_samples,
-                    &mut rng,
-                )
-            })
-            .collect();
-        for (&i, radiance) in unseen.iter().zip(shaded) {
-            results[i].radiance = radiance;
-        }
+        light_hits(shading, &unseen, results, |k, i, _, rng| {
+            let hit = hits[i].as_ref().expect("a hit");
+            shading.shader.radiance_with_indirect(
+                hit,
+                -casts[i].direction,
+                indirect[k],
+                shading.emitter_samples,
+                rng,
+            )
+        });
         Ok(())
     }
 
@@ -1061,14 +1079,8 @@ pub fn trace_only(
     if tracer == Tracer::Shaded && shading.is_none() {
         return Ok(None);
     }
-    // The split reads the probes of the light the surfaces reflect.
-    let read = if tracer == Tracer::Split {
-        match shading.and_then(HitShading::indirect_bake) {
-            Some(indirect) => indirect,
-            None => return Ok(None),
-        }
-    } else {
-        baked
+    let Some(read) = bake_read_by(tracer, baked, shading) else {
+        return Ok(None);
     };
     let field = device.upload(&light_field(read), &probe_selection)?;
     // Traced in 8×8 pixel tiles (faster on a GPU; the answers do not depend on the order).

@@ -12,7 +12,7 @@ use probe_capture::{ProbeBake, TileOrder, accumulate_rays, reflection_rays, rend
 use probe_eval::final_render::{
     DiffuseBlend, FinalOptions, ProbeFinal, SpecularMode, render_final,
 };
-use probe_eval::pipeline::{Device, Selection, Tracer, build_index, light_field};
+use probe_eval::pipeline::{Device, Selection, Tracer, bake_read_by, build_index, light_field};
 use probe_index::ProbeGrid;
 use probe_trace_gpu::{
     DiffuseOptions, FieldOptions, Interpolation, ShadingPoint, TraceOptions, TraceRay, TraceSummary,
@@ -392,14 +392,9 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::Shaded => Tracer::Shaded,
             TracerArg::Split => Tracer::Split,
         };
-        // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
-        // cache); time it apart and the trace on the second.
         let hit_shading = device.hit_shading_for(tracer, &scene, &baked, &index)?;
-        // The split reads the bake of the light the surfaces reflect.
-        let read = match hit_shading.as_ref().and_then(|s| s.indirect_bake()) {
-            Some(indirect) => indirect,
-            None => &baked,
-        };
+        // Without its reflected-light bake the split is refused by `trace_with`.
+        let read = bake_read_by(tracer, &baked, hit_shading.as_ref()).unwrap_or(&baked);
         let field = if args.filtered {
             device.upload_with(
                 &light_field(&baked),
@@ -424,6 +419,8 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             .iter()
             .map(|r| TraceRay::new(r.origin, r.direction))
             .collect();
+        // The first dispatch compiles the pipeline (seconds on lavapipe with a cold shader
+        // cache); time it apart and the trace on the second.
         let first_start = Instant::now();
         let warm_up = &trace_rays[..trace_rays.len().min(WARM_UP_ITEMS)];
         if args.filtered {

@@ -18,3 +18,15 @@ pub fn probes(args: &[&str]) -> Output {
 pub fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
 }
+
+/// Asserts that `output` is a refusal: a failed run whose error is one line naming `needle`.
+#[allow(
+    dead_code,
+    reason = "each test binary compiles this module; not every one has a refusal"
+)]
+pub fn assert_refused_in_one_line(output: &Output, needle: &str) {
+    let message = stderr(output);
+    assert!(!output.status.success(), "accepted: {message}");
+    assert_eq!(message.trim().lines().count(), 1, "{message}");
+    assert!(message.contains(needle), "{message}");
+}
