@@ -222,7 +222,17 @@ mod tests {
     #[test]
     fn progressive_reference_stops_below_target_and_is_deterministic() {
         let scene = Scene::builtin("cornell").unwrap();
-        let camera = scene.default_camera();
+        // The default camera looking down at the boxes and the floor, the light out of view:
+        // pixels on the edge of the 17-unit emitter are heavy-tailed (a few jittered rays meet
+        // it), which no estimate from a few passes predicts, and they would be most of the
+        // noise (BENCHMARKS.md, "Light samples with partners").
+        let default = scene.default_camera();
+        let camera = Camera::look_at(
+            default.position,
+            Vec3::new(0.278, 0.0, 0.28),
+            Vec3::Y,
+            default.yfov * 0.6,
+        );
         let (_, coarse) = render_converged(
             &scene,
             &camera,
@@ -268,24 +278,27 @@ mod tests {
         let (again, noise_again) = run();
         assert_eq!(image, again);
         assert_eq!(noise, noise_again);
-        // The estimate is the noise: an independent render with other seeds differs from this
-        // one by about the two noises together.
-        let mut other = settings();
-        other.seed = 12345;
-        let (independent, other_noise) = render_converged(
-            &scene,
-            &camera,
-            &other,
-            NoiseTarget::Samples(noise.samples),
-            &no_progress,
-        )
-        .unwrap();
-        let measured = tonemapped_mse(&image, &independent);
-        let predicted = noise.noise + other_noise.noise;
-        assert!(
-            measured > predicted / 2.0 && measured < predicted * 2.0,
-            "measured {measured} predicted {predicted}"
-        );
+        // The estimate is the noise: independent renders with other seeds differ from this one
+        // by about the two noises together (each of the seven).
+        for seed in 1..=7u64 {
+            let mut other = settings();
+            other.seed = 12_345 + seed;
+            let (independent, other_noise) = render_converged(
+                &scene,
+                &camera,
+                &other,
+                NoiseTarget::Samples(noise.samples),
+                &no_progress,
+            )
+            .unwrap();
+            let measured = tonemapped_mse(&image, &independent);
+            let predicted = noise.noise + other_noise.noise;
+            assert!(
+                measured > predicted / 2.0 && measured < predicted * 2.0,
+                "seed {}: measured {measured} predicted {predicted}",
+                other.seed
+            );
+        }
     }
 
     #[test]

@@ -437,12 +437,12 @@ impl Scene {
         hasher.finalize().into()
     }
 
-    /// The obvhs ray for `ray` over `[0, t_max)`, or `None` when nothing can be hit
-    /// (no triangles, non-finite ray, `t_max ≤ 0` or NaN).
+    /// The obvhs ray for `ray` over `[t_min, t_max)`, or `None` when nothing can be hit
+    /// (no triangles, non-finite ray, `t_max ≤ t_min` or NaN).
     #[inline(always)]
-    fn bvh_ray(&self, ray: &Ray, t_max: f32) -> Option<obvhs::ray::Ray> {
-        // `t_max > 0.0` is false for NaN too.
-        let positive = t_max > 0.0;
+    fn bvh_ray(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<obvhs::ray::Ray> {
+        // `t_max > t_min` is false for NaN too.
+        let positive = t_max > t_min;
         if self.bvh.leaf_triangles.is_empty()
             || !positive
             || !ray.origin.is_finite()
@@ -461,7 +461,7 @@ impl Scene {
                 obvhs::ray::safe_inverse(direction.y),
                 obvhs::ray::safe_inverse(direction.z),
             ),
-            tmin: 0.0,
+            tmin: t_min,
             tmax: t_max,
         })
     }
@@ -498,7 +498,20 @@ impl Scene {
     /// non-finite origin or direction hits nothing.
     #[inline]
     pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        let bvh_ray = self.bvh_ray(ray, t_max)?;
+        self.closest_hit_between(ray, 0.0, t_max)
+    }
+
+    /// The closest hit with `t_min ≤ t < t_max`, or `None`: for a ray that starts exactly on a
+    /// surface point rather than at an offset origin, with `t_min` past the rounding of that
+    /// point off its own plane (a few ulps of the coordinates over the cosine between the ray
+    /// and the plane). Its `t` is then measured from the surface point itself, which matters
+    /// where the ray's solid angle does: an offset origin at large coordinates (256 ulps:
+    /// 1.6 cm at 1 km) stands measurably closer to a light a few centimetres away.
+    /// Otherwise as [`Scene::closest_hit`]; a negative or NaN `t_min` counts as 0.
+    #[inline]
+    pub fn closest_hit_between(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let t_min = t_min.max(0.0);
+        let bvh_ray = self.bvh_ray(ray, t_min, t_max)?;
         let mut hit = RayHit::none();
         if !self
             .bvh
@@ -529,7 +542,7 @@ impl Scene {
     /// Alpha-mask cut-outs do not occlude.
     #[inline]
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        match self.bvh_ray(ray, t_max) {
+        match self.bvh_ray(ray, 0.0, t_max) {
             Some(bvh_ray) => !self
                 .bvh
                 .cwbvh

@@ -113,6 +113,63 @@ fn misses_and_t_max() {
     assert!(scene.closest_hit(&zero, f32::INFINITY).is_none());
 }
 
+/// `closest_hit_between` skips hits below `t_min`: a ray that starts exactly on the cube's
+/// face, at 1 km from the origin as near it, finds the opposite face with `t` measured from
+/// its own origin, while `closest_hit` from the same point may find the face it starts on.
+#[test]
+fn hits_between_skip_the_surface_a_ray_starts_on() {
+    for offset in [Vec3::ZERO, Vec3::splat(1.0e3)] {
+        let triangles = unit_cube(0)
+            .into_iter()
+            .map(|t| triangle(t.positions.map(|p| p + offset), 0))
+            .collect();
+        let scene = Scene::from_triangles(
+            "cube",
+            triangles,
+            vec![Material::diffuse("grey", Vec3::splat(0.5))],
+            Vec::new(),
+            Vec::new(),
+        )
+        .unwrap();
+        // On the −Z face, inside the cube, at 60° from the face's normal.
+        let origin = offset + Vec3::new(0.3, 0.4, 0.0);
+        let direction = Vec3::new(0.0, 0.5, 0.75f32.sqrt());
+        let ray = Ray { origin, direction };
+        let ulp = |x: f32| f32::from_bits(x.abs().to_bits() + 1) - x.abs();
+        let t_min = 16.0 * ulp(origin.max_element().max(1.0)) / direction.z;
+        let hit = scene
+            .closest_hit_between(&ray, t_min, f32::INFINITY)
+            .expect("the far side of the cube");
+        // It leaves through the +Y face at y = 1: t = 0.6 / 0.5.
+        assert!((hit.t - 1.2).abs() < 1e-3, "{offset}: t {}", hit.t);
+        assert!(
+            (hit.position.y - offset.y - 1.0).abs() < 1e-3,
+            "{offset}: {}",
+            hit.position
+        );
+        assert!(hit.t >= t_min);
+        // Limits: nothing when t_max ≤ t_min or beyond the last hit; a negative or NaN t_min
+        // counts as 0.
+        assert!(scene.closest_hit_between(&ray, 1.3, 1.3).is_none());
+        assert!(
+            scene
+                .closest_hit_between(&ray, 1.21, f32::INFINITY)
+                .is_none()
+        );
+        assert_eq!(
+            scene
+                .closest_hit_between(&ray, f32::NAN, f32::INFINITY)
+                .map(|h| h.t),
+            scene.closest_hit(&ray, f32::INFINITY).map(|h| h.t)
+        );
+        let from_outside = Ray::new(origin - Vec3::Z, Vec3::Z);
+        let front = scene
+            .closest_hit_between(&from_outside, -1.0, f32::INFINITY)
+            .expect("the −Z face");
+        assert!((front.t - 1.0).abs() < 1e-3);
+    }
+}
+
 #[test]
 fn occlusion_between_points() {
     let scene = cube_scene();
