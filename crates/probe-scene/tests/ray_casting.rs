@@ -140,10 +140,11 @@ fn hits_between_skip_the_surface_a_ray_starts_on() {
         let hit = scene
             .closest_hit_between(&ray, t_min, f32::INFINITY)
             .expect("the far side of the cube");
-        // It leaves through the +Y face at y = 1: t = 0.6 / 0.5.
-        assert!((hit.t - 1.2).abs() < 1e-3, "{offset}: t {}", hit.t);
+        // It leaves through the +Z face at z = 1 (at y = 0.98): t = 1 / cos 30°.
+        let exit = 1.0 / direction.z;
+        assert!((hit.t - exit).abs() < 1e-3, "{offset}: t {}", hit.t);
         assert!(
-            (hit.position.y - offset.y - 1.0).abs() < 1e-3,
+            (hit.position.z - offset.z - 1.0).abs() < 1e-3,
             "{offset}: {}",
             hit.position
         );
