@@ -50,6 +50,18 @@ fn mean_and_standard_error(values: &[f64]) -> (f64, f64) {
     (mean, (variance / n).sqrt())
 }
 
+/// The standard error of the mean of `values`, once the mean is asserted to agree with
+/// `expected`: within five standard errors (a false failure about once in 2·10⁶) plus 1e-3 of
+/// the answer for f32 rounding. `case` names the case in the failure message.
+fn agreeing_standard_error(values: &[f64], expected: f64, case: &str) -> f64 {
+    let (mean, standard_error) = mean_and_standard_error(values);
+    assert!(
+        (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
+        "{case}: {mean} vs {expected} (standard error {standard_error})"
+    );
+    standard_error
+}
+
 /// How the emitter square of [`emitter_over_receiver`] is made.
 #[derive(Clone, Copy, Debug)]
 enum EmitterSides {
@@ -129,18 +141,15 @@ fn square_emitter_matches_its_form_factor() {
             for sides in [EmitterSides::Facing, EmitterSides::TwoSidedBack] {
                 let scene = emitter_over_receiver(origin, gap, sides);
                 let estimates = direct_estimates(&scene, origin, gap, samples);
-                let (mean, standard_error) = mean_and_standard_error(&estimates);
                 // L = ρ/π · E = ρ/π · π Le F = ρ Le F.
                 let form_factor = square_form_factor(f64::from(HALF), f64::from(gap));
                 let expected = f64::from(ALBEDO * RADIANCE) * form_factor;
-                // Five standard errors (a false failure about once in 2·10⁶), plus 1e-3 of
-                // the answer for f32 rounding of the geometric terms.
-                let tolerance = 5.0 * standard_error + 1e-3 * expected;
-                assert!(
-                    (mean - expected).abs() <= tolerance,
-                    "origin {origin}, gap {gap}, {sides:?}: {mean} vs {expected} \
-                     (form factor {form_factor}, standard error {standard_error})"
+                let standard_error = agreeing_standard_error(
+                    &estimates,
+                    expected,
+                    &format!("origin {origin}, gap {gap}, {sides:?}, form factor {form_factor}"),
                 );
+                let tolerance = 5.0 * standard_error + 1e-3 * expected;
                 // The tolerance is tight enough to mean something: under 5 % of the answer.
                 assert!(
                     tolerance < 0.05 * expected,
@@ -223,11 +232,8 @@ fn ceiling_and_floor_of_a_two_sided_light() {
         let estimates: Vec<f64> = (0..400_000)
             .map(|_| f64::from(shader.outgoing_radiance(&hit, towards_viewer, &mut rng).x))
             .collect();
-        let (mean, standard_error) = mean_and_standard_error(&estimates);
-        assert!(
-            (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
-            "{towards_viewer}: {mean} vs {expected} (standard error {standard_error})"
-        );
+        let standard_error =
+            agreeing_standard_error(&estimates, expected, &towards_viewer.to_string());
         assert!(
             standard_error < 0.01 * expected,
             "{towards_viewer}: standard error {standard_error} of {expected}"
@@ -254,11 +260,8 @@ fn direct_irradiance_meets_the_form_factor_with_less_variance() {
                 f64::from(radiance.x)
             })
             .collect();
-        let (mean, standard_error) = mean_and_standard_error(&estimates);
-        assert!(
-            (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
-            "{towards_viewer}: {mean} vs {expected} (standard error {standard_error})"
-        );
+        let standard_error =
+            agreeing_standard_error(&estimates, expected, &towards_viewer.to_string());
         // The variance of a mean of 16 independent light samples (a uniform point on the
         // square, nothing in between), from 320,000 of them.
         let mut rng = Rng::for_key(13, &[index as u64]);
@@ -280,10 +283,10 @@ fn direct_irradiance_meets_the_form_factor_with_less_variance() {
                 f64::from(ALBEDO * RADIANCE) / PI * cosine * cosine * area / distance_squared
             })
             .collect();
-        let (independent_mean, one_sample_error) = mean_and_standard_error(&one_sample);
-        assert!(
-            (independent_mean - expected).abs() <= 5.0 * one_sample_error + 1e-3 * expected,
-            "{towards_viewer}: independent samples {independent_mean} vs {expected}"
+        let one_sample_error = agreeing_standard_error(
+            &one_sample,
+            expected,
+            &format!("{towards_viewer}, independent samples"),
         );
         let independent_variance = one_sample_error.powi(2) * 320_000.0 / 16.0;
         let variance = standard_error.powi(2) * 20_000.0;
@@ -365,12 +368,11 @@ fn furnace_box_reference() {
             let image = render(&scene, &camera, &settings, &no_progress).unwrap();
             // Every pixel has the same expectation: their spread is the noise.
             let values: Vec<f64> = image.rgb.iter().map(|p| f64::from(p[1])).collect();
-            let (mean, standard_error) = mean_and_standard_error(&values);
             let expected = furnace_radiance(f64::from(albedo), f64::from(emission), bounces);
-            assert!(
-                (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
-                "albedo {albedo}, {component:?}, {bounces} bounces: {mean} vs {expected} \
-                 (standard error {standard_error})"
+            let standard_error = agreeing_standard_error(
+                &values,
+                expected,
+                &format!("albedo {albedo}, {component:?}, {bounces} bounces"),
             );
             assert!(
                 standard_error < 0.02 * expected,
@@ -425,12 +427,11 @@ fn furnace_box_bake() {
         let scene = furnace_box(albedo, emission);
         for bounces in [0u32, 1, 3, 12] {
             let values = furnace_wall_texels(&scene, bounces, BakedRadiance::Outgoing);
-            let (mean, standard_error) = mean_and_standard_error(&values);
             let expected = furnace_radiance(f64::from(albedo), f64::from(emission), bounces);
-            assert!(
-                (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
-                "albedo {albedo}, {bounces} bounces: {mean} vs {expected} \
-                 (standard error {standard_error})"
+            let standard_error = agreeing_standard_error(
+                &values,
+                expected,
+                &format!("albedo {albedo}, {bounces} bounces"),
             );
             assert!(
                 standard_error < 0.03 * expected,
@@ -452,17 +453,17 @@ fn furnace_box_indirect_bake() {
         let scene = furnace_box(albedo, emission);
         for bounces in [0u32, 1, 3] {
             let values = furnace_wall_texels(&scene, bounces, BakedRadiance::Indirect);
-            let (mean, standard_error) = mean_and_standard_error(&values);
             let (a, e) = (f64::from(albedo), f64::from(emission));
             let expected = furnace_radiance(a, e, bounces) - e - a * e;
             if bounces == 0 {
+                let (mean, _) = mean_and_standard_error(&values);
                 assert_eq!(mean, 0.0, "albedo {albedo}: no bounce, no reflected light");
                 continue;
             }
-            assert!(
-                (mean - expected).abs() <= 5.0 * standard_error + 1e-3 * expected,
-                "albedo {albedo}, {bounces} bounces: {mean} vs {expected} \
-                 (standard error {standard_error})"
+            let standard_error = agreeing_standard_error(
+                &values,
+                expected,
+                &format!("albedo {albedo}, {bounces} bounces"),
             );
             assert!(
                 standard_error < 0.05 * expected,
@@ -488,12 +489,11 @@ fn furnace_box_indirect_bake() {
                     f64::from(shaded.x)
                 })
                 .collect();
-            let (mean, standard_error) = mean_and_standard_error(&estimates);
             let whole = furnace_radiance(a, e, bounces);
-            assert!(
-                (mean - whole).abs() <= 5.0 * standard_error + 1e-3 * whole,
-                "albedo {albedo}, {bounces} bounces: shaded {mean} vs {whole} \
-                 (standard error {standard_error})"
+            agreeing_standard_error(
+                &estimates,
+                whole,
+                &format!("albedo {albedo}, {bounces} bounces, shaded"),
             );
         }
     }
