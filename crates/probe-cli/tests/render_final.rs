@@ -300,31 +300,53 @@ fn the_split_tracer_renders_the_glossy_component_only() {
     assert_refused_in_one_line(&refused, "split");
 }
 
-/// A bake of the reflected light alone (`BakedRadiance::Indirect`, which only the library
-/// makes) is refused by `probes render` in one line naming it, not rendered as if it held all
+/// A bake of the reflected light alone (`probes bake --radiance indirect`) is what the split
+/// bakes for itself from a bake of the outgoing radiance: the split renders it to the same
+/// bytes with no second bake (the render says so), and every other image of it (another
+/// tracer, the final image) is refused in one line naming it, not rendered as if it held all
 /// the light.
 #[test]
-fn a_bake_of_reflected_light_only_is_refused() {
+fn a_bake_of_reflected_light_is_read_by_the_split_alone() {
     let root = tempfile::tempdir().unwrap();
-    let scene = probe_scene::Scene::builtin("cornell").unwrap();
-    let settings = probe_capture::BakeSettings {
-        resolution: 16,
-        sampling: probe_capture::Sampling::fixed(2),
-        radiance: probe_capture::BakedRadiance::Indirect,
-        ..Default::default()
-    };
-    let centre = scene.bounds().center();
-    let baked =
-        probe_capture::bake(&scene, &[centre], &settings, &probe_capture::no_progress).unwrap();
-    let bake = root.path().join("indirect");
-    baked.save(&bake).unwrap();
-    let refused = probes(&[
-        "render",
-        bake.to_str().unwrap(),
-        "--scene",
+    let outgoing = small_cornell_bake(root.path());
+    let indirect = root.path().join("indirect");
+    let output = probes(&[
+        "bake",
         "builtin:cornell",
+        "--probes",
+        "grid:2x2x2",
+        "--res",
+        "16",
+        "--spp",
+        "2",
+        "--radiance",
+        "indirect",
         "--out",
-        root.path().join("refused.exr").to_str().unwrap(),
+        indirect.to_str().unwrap(),
     ]);
-    assert_refused_in_one_line(&refused, "reflect");
+    assert!(output.status.success(), "{}", stderr(&output));
+    let mut images = Vec::new();
+    for (name, bake, made) in [
+        ("from-outgoing", &outgoing, "baked for this render"),
+        ("from-indirect", &indirect, "the bake given"),
+    ] {
+        let out = root.path().join(format!("{name}.exr"));
+        let rendered = render_glossy(bake, "split", &out, &["--json"]);
+        assert!(rendered.status.success(), "{name}: {}", stderr(&rendered));
+        let report: serde_json::Value = serde_json::from_slice(&rendered.stdout).unwrap();
+        assert_eq!(report["reflected_light"], made, "{name}");
+        images.push(std::fs::read(out).unwrap());
+    }
+    assert_eq!(
+        images[0], images[1],
+        "the split read a bake of the reflected light otherwise than the one it makes"
+    );
+    for (tracer, extra) in [
+        ("hybrid", &[][..]),
+        ("hiz", &[][..]),
+        ("split", &["--component", "final"][..]),
+    ] {
+        let refused = render_glossy(&indirect, tracer, &root.path().join("refused.exr"), extra);
+        assert_refused_in_one_line(&refused, "reflect");
+    }
 }

@@ -564,27 +564,33 @@ pub struct HitShading<'s> {
     pub emitter_samples: u32,
     /// Seeds the emitter samples (per ray); [`Device::hit_shading`] takes the bake's seed.
     pub seed: u64,
-    /// For [`Tracer::Split`]: the bake of the light the surfaces reflect
-    /// ([`BakedRadiance::Indirect`]) at the bake's positions.
+    /// For [`Tracer::Split`] given a bake of the outgoing radiance: the bake of the light the
+    /// surfaces reflect ([`BakedRadiance::Indirect`]) made at its positions.
     indirect: Option<ProbeBake>,
+    /// Made for [`Tracer::Split`] ([`Device::hit_shading_for`] with that tracer): its probes
+    /// hold the reflected light alone, in `indirect` or in the bake given, when that is one.
+    split: bool,
 }
 
 impl HitShading<'_> {
     /// The bake of the light the surfaces reflect that [`Tracer::Split`] reads, when made
-    /// ([`Device::hit_shading_for`] with that tracer).
+    /// for it ([`Device::hit_shading_for`] with that tracer and a bake of the outgoing
+    /// radiance; `None` when the bake given already held the reflected light).
     pub fn indirect_bake(&self) -> Option<&ProbeBake> {
         self.indirect.as_ref()
     }
 }
 
-/// The bake whose probes `tracer` reads: `baked` itself, except for [`Tracer::Split`], which
-/// reads `shading`'s [`HitShading::indirect_bake`] (`None` when there is none).
+/// The bake whose probes `tracer` reads: `baked` itself, except for [`Tracer::Split`] on a
+/// bake of the outgoing radiance, which reads `shading`'s [`HitShading::indirect_bake`]
+/// (`None` when there is none). A bake that already holds the reflected light alone
+/// ([`BakedRadiance::Indirect`], `probes bake --radiance indirect`) is read by the split as it is.
 pub fn bake_read_by<'a>(
     tracer: Tracer,
     baked: &'a ProbeBake,
     shading: Option<&'a HitShading<'_>>,
 ) -> Option<&'a ProbeBake> {
-    if tracer == Tracer::Split {
+    if tracer == Tracer::Split && baked.settings().radiance != BakedRadiance::Indirect {
         shading.and_then(HitShading::indirect_bake)
     } else {
         Some(baked)
@@ -749,7 +755,7 @@ impl Device {
             .collect();
         let hits = scene.closest_hits(&casts, f32::INFINITY);
         let split = match (tracer, shading) {
-            (Tracer::Split, Some(shading)) if shading.indirect.is_some() => Some(shading),
+            (Tracer::Split, Some(shading)) if shading.split => Some(shading),
             (Tracer::Split, _) => {
                 return Err(EvalError::InvalidSetting {
                     parameter: "tracer",
@@ -901,6 +907,14 @@ impl Device {
                 resolution: HIT_SHADING_RESOLUTION.min(settings.resolution),
                 bounces: settings.bounces - 1,
                 radiance: BakedRadiance::Outgoing,
+                // A bake of the reflected light was smoothed for the split's read
+                // ([`SPLIT_INDIRECT_DENOISE`]), not for these probes: they are baked
+                // unsmoothed, as from a default bake of the outgoing radiance.
+                denoise: if settings.radiance == BakedRadiance::Indirect {
+                    BakeSettings::default().denoise
+                } else {
+                    settings.denoise
+                },
                 ..settings.clone()
             };
             let shading_bake = bake(scene, baked.positions(), &fewer, &|_, _| {})?;
@@ -915,16 +929,20 @@ impl Device {
             // samples too, and the demo's bake noise (half their images' MSE) holds both.
             seed: settings.seed,
             indirect: None,
+            split: false,
         }))
     }
 
     /// [`Self::hit_shading`] where `tracer` casts rays against the BVH ([`Tracer::uses_bvh`]),
-    /// else `None` (the light-field tracers shade nothing). For [`Tracer::Split`] the light
-    /// field of the light the surfaces reflect is baked too ([`indirect_bake`]): a second
-    /// bake at `baked`'s positions and resolution, as long as `baked` took.
+    /// else `None` (the light-field tracers shade nothing). For [`Tracer::Split`] on a bake of
+    /// the outgoing radiance the light field of the light the surfaces reflect is baked too
+    /// ([`indirect_bake`]): a second bake at `baked`'s positions and resolution, as long as
+    /// `baked` took. A bake that holds the reflected light already
+    /// ([`BakedRadiance::Indirect`]) is read as it is, with no second bake.
     ///
     /// # Errors
-    /// As [`Self::hit_shading`].
+    /// As [`Self::hit_shading`]; [`EvalError::InvalidSetting`] for a bake of the reflected
+    /// light with any tracer but the split, whose images would lack the light sources.
     pub fn hit_shading_for<'s>(
         &mut self,
         tracer: Tracer,
@@ -932,13 +950,27 @@ impl Device {
         baked: &ProbeBake,
         index: &BuiltIndex,
     ) -> Result<Option<HitShading<'s>>, EvalError> {
+        let holds_reflected = baked.settings().radiance == BakedRadiance::Indirect;
+        if holds_reflected && tracer != Tracer::Split {
+            return Err(EvalError::InvalidSetting {
+                parameter: "tracer",
+                value: tracer.name().into(),
+                reason: "the bake holds only the light its surfaces reflect \
+                         (BakedRadiance::Indirect), which only the split reads: use \
+                         Tracer::Split, or a bake of the outgoing radiance"
+                    .into(),
+            });
+        }
         if !tracer.uses_bvh() {
             return Ok(None);
         }
         let shading = self.hit_shading(scene, baked, index)?;
         match (tracer, shading) {
             (Tracer::Split, Some(mut shading)) => {
-                shading.indirect = Some(indirect_bake(scene, baked)?);
+                if !holds_reflected {
+                    shading.indirect = Some(indirect_bake(scene, baked)?);
+                }
+                shading.split = true;
                 Ok(Some(shading))
             }
             (_, shading) => Ok(shading),

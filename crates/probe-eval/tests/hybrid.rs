@@ -257,4 +257,32 @@ fn the_split_lights_the_hits_and_reads_the_reflected_light() {
     );
     assert!(shown >= 1000, "{shown}");
     assert!(se_split < se_hybrid, "{se_split} against {se_hybrid}");
+
+    // Given a bake that holds the reflected light already (the second bake itself), the split
+    // makes no second bake and answers every ray as before; the other tracers refuse it.
+    let given = device
+        .hit_shading_for(Tracer::Split, &scene, indirect, &index)
+        .unwrap()
+        .expect("eight probes span a volume");
+    assert!(given.indirect_bake().is_none(), "a third bake");
+    let read = probe_eval::pipeline::bake_read_by(Tracer::Split, indirect, Some(&given));
+    assert!(std::ptr::eq(read.unwrap(), indirect));
+    let again = device
+        .trace_with(&scene, &indirect_field, &rays, Tracer::Split, Some(&given))
+        .unwrap();
+    assert_eq!(again.results, lit.results);
+    for tracer in [
+        Tracer::Hybrid,
+        Tracer::Shaded,
+        Tracer::HiZ,
+        Tracer::TwoLevel,
+    ] {
+        assert!(
+            matches!(
+                device.hit_shading_for(tracer, &scene, indirect, &index),
+                Err(probe_eval::EvalError::InvalidSetting { .. })
+            ),
+            "{tracer:?} read a bake of the reflected light"
+        );
+    }
 }

@@ -5,7 +5,10 @@ use crate::cli_error::CliError;
 use crate::output::Report;
 use crate::progress::bar;
 use crate::spec::{MemoryArgs, SunArgs, open_scene_with_limit, probe_set, warnings_json};
-use probe_capture::{BakeSettings, ProbeBake, Sampling, Shard, bake_shard, bake_with_limit};
+use probe_capture::{
+    BakeSettings, BakedRadiance, ProbeBake, Sampling, Shard, bake_shard, bake_with_limit,
+};
+use probe_eval::pipeline::SPLIT_INDIRECT_DENOISE;
 use serde_json::{Value, json};
 use std::ops::Range;
 use std::path::PathBuf;
@@ -42,6 +45,17 @@ pub struct Args {
     /// Seed of every random choice.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// What the radiance maps hold: `outgoing` (what every tracer reads) or `indirect` (the
+    /// light the surfaces reflect alone, without emission and the light sources' direct
+    /// light at the texel's surface), which only `probes render --tracer split` reads. A
+    /// split render of an outgoing bake makes this second bake itself, as long as the first
+    /// took, on every render; bake it once here instead.
+    #[arg(long, value_enum, default_value_t = RadianceArg::Outgoing)]
+    pub radiance: RadianceArg,
+    /// Edge-preserving smoothing of the radiance maps, 0 (off) to 8. Default: 0 for
+    /// `--radiance outgoing`, 2 for `indirect` (what the split's own second bake uses).
+    #[arg(long)]
+    pub denoise: Option<f32>,
     /// Surfels per side of each probe (a power of two; 0 for none), from which diffuse
     /// shading re-gathers the light at each point (`render --diffuse-options parallax`).
     #[arg(long, default_value_t = BakeSettings::default().surfel_resolution)]
@@ -67,11 +81,24 @@ pub struct Args {
     pub memory: MemoryArgs,
 }
 
+/// What a bake's radiance maps hold, on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RadianceArg {
+    /// The radiance leaving each texel's surface towards the probe.
+    Outgoing,
+    /// The light each texel's surface reflects from its surroundings and the sky alone.
+    Indirect,
+}
+
 /// Bakes the probes and saves the bake.
 pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let limit = args.memory.limit();
     let scene = open_scene_with_limit(&args.scene, limit)?;
     let probes = probe_set(&args.probes, &scene)?;
+    let radiance = match args.radiance {
+        RadianceArg::Outgoing => BakedRadiance::Outgoing,
+        RadianceArg::Indirect => BakedRadiance::Indirect,
+    };
     let settings = BakeSettings {
         resolution: args.res,
         sampling: match args.spp {
@@ -82,6 +109,11 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         seed: args.seed,
         environment: args.sun.environment(&scene)?,
         surfel_resolution: args.surfels,
+        radiance,
+        denoise: args.denoise.unwrap_or(match radiance {
+            BakedRadiance::Indirect => SPLIT_INDIRECT_DENOISE,
+            BakedRadiance::Outgoing => BakeSettings::default().denoise,
+        }),
         ..BakeSettings::default()
     };
     let progress = bar(0, "baking");
@@ -195,6 +227,11 @@ impl Report for BakeSummary {
             "mean_samples_per_texel": self.baked.mean_samples_per_texel(),
             "noise": self.baked.noise(),
             "bounces": s.bounces,
+            "radiance": match s.radiance {
+                BakedRadiance::Outgoing => "outgoing",
+                BakedRadiance::Indirect => "indirect",
+            },
+            "denoise": s.denoise,
             "seed": s.seed,
             "primary_rays": self.rays(),
             "bake_seconds": self.bake_seconds,
@@ -258,6 +295,15 @@ impl Report for BakeSummary {
             probe_capture::ProbeStats::INSIDE_GEOMETRY_BACK_FACE_SHARE,
             inside,
         );
+        if s.radiance == BakedRadiance::Indirect {
+            text.push_str(
+                "the radiance maps hold the light the surfaces reflect alone (smoothed at ",
+            );
+            text.push_str(&format!(
+                "{}): render them with `probes render BAKE --tracer split`\n",
+                s.denoise
+            ));
+        }
         if let Some(previews) = &self.previews {
             for p in previews {
                 text.push_str(&format!("preview: {}\n", p.display()));

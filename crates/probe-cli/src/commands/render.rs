@@ -35,8 +35,9 @@ pub enum TracerArg {
     /// irradiance probes (DDGI's answer to a ray-traced reflection; no light-field probe read).
     Shaded,
     /// Geometry from the scene's BVH, exact direct light with shadow rays, and the light each
-    /// hit reflects from its surroundings read from probes baked to hold only that (a second
-    /// bake at the same positions, made for this render). Glossy component only.
+    /// hit reflects from its surroundings read from probes baked to hold only that: the bake
+    /// given, when it was baked with `--radiance indirect`; else a second bake at the same
+    /// positions, made for this render (as long as the first took). Glossy component only.
     Split,
 }
 
@@ -200,18 +201,18 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         ),
     )?;
     let loaded_without_check = ProbeBake::load_with_limit(&args.bake, None, limit)?;
-    if loaded_without_check.settings().radiance == probe_capture::BakedRadiance::Indirect {
-        // Every tracer here reads a bake's outgoing radiance (the split bakes its own
-        // reflected light from the bake's positions): an image of reflected light alone would
-        // pass for a render.
+    if loaded_without_check.settings().radiance == probe_capture::BakedRadiance::Indirect
+        && !(args.component == ComponentArg::Glossy1 && matches!(args.tracer, TracerArg::Split))
+    {
+        // Only the split's glossy reflections add the light sources to a bake of the reflected
+        // light: any other image of it would lack them and pass for a render.
         return Err(CliError::InvalidArgument {
             parameter: "BAKE",
             value: args.bake.display().to_string(),
-            reason:
-                "the bake holds only the light its surfaces reflect (BakedRadiance::Indirect); \
-                     render a bake of the outgoing radiance (the default of probes bake), and \
-                     use --tracer split for the light split, which makes its own"
-                    .into(),
+            reason: "the bake holds only the light its surfaces reflect (probes bake --radiance \
+                 indirect), which only `--component glossy1 --tracer split` reads; render a \
+                 bake of the outgoing radiance (the default of probes bake) for anything else"
+                .into(),
         });
     }
     let scene_spec = match (&args.scene, loaded_without_check.scene_source()) {
@@ -392,7 +393,9 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
             TracerArg::Shaded => Tracer::Shaded,
             TracerArg::Split => Tracer::Split,
         };
+        let shading_start = Instant::now();
         let hit_shading = device.hit_shading_for(tracer, &scene, &baked, &index)?;
+        let shading_seconds = shading_start.elapsed().as_secs_f64();
         // Without its reflected-light bake the split is refused by `trace_with`.
         let read = bake_read_by(tracer, &baked, hit_shading.as_ref()).unwrap_or(&baked);
         let field = if args.filtered {
@@ -468,6 +471,25 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         );
         map.insert("first_dispatch_ms".into(), json!(first_dispatch_ms));
         map.insert("index_seconds".into(), json!(index_seconds));
+        if tracer.uses_bvh() {
+            // The BVH tracers' irradiance probes, and the split's second bake when the bake
+            // given holds the outgoing radiance.
+            map.insert("hit_shading_seconds".into(), json!(shading_seconds));
+        }
+        if tracer == Tracer::Split {
+            let made = hit_shading
+                .as_ref()
+                .and_then(|s| s.indirect_bake())
+                .is_some();
+            map.insert(
+                "reflected_light".into(),
+                json!(if made {
+                    "baked for this render"
+                } else {
+                    "the bake given"
+                }),
+            );
+        }
         if let Some(interleaved) = &interleaved {
             let resolve_start = Instant::now();
             let image = interleaved.resolve(&radiance);
@@ -687,6 +709,17 @@ impl Report for RenderSummary {
         if let Some(ms) = number("direct_ms") {
             text.push_str(&format!(
                 "direct light (exact shadow rays on the CPU) {ms:.1} ms\n"
+            ));
+        }
+        if let Some(seconds) = number("hit_shading_seconds") {
+            text.push_str(&format!(
+                "hit shading made in {seconds:.2} s{}\n",
+                match j["reflected_light"].as_str() {
+                    Some("baked for this render") =>
+                        " (with the split's bake of the reflected light; bake it once with \
+                         `probes bake --radiance indirect` and render that)",
+                    _ => "",
+                }
             ));
         }
         if let Some(ms) = number("first_dispatch_ms") {
