@@ -40,6 +40,10 @@ struct Emitters {
     /// Per scene triangle, its position in the table (`u32::MAX` for non-emitters), for the
     /// light-sampling pdf of a bounce ray that hits an emitter.
     slot_of_triangle: Vec<u32>,
+    /// Per emitter, for [`Self::partner_probability`]: its bounding sphere's centre and
+    /// radius and its area over its pmf. Empty with more than [`PARTNER_BOUND_EMITTERS`]
+    /// emitters (every partner is then cast).
+    spheres: Vec<(Vec3, f32, f32)>,
 }
 
 impl Emitters {
@@ -75,12 +79,62 @@ impl Emitters {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        let pmf = powers.iter().map(|&p| (p / total) as f32).collect();
+        let pmf: Vec<f32> = powers.iter().map(|&p| (p / total) as f32).collect();
+        let spheres = if triangles.len() <= PARTNER_BOUND_EMITTERS {
+            triangles
+                .iter()
+                .zip(&pmf)
+                .map(|(&index, &pmf)| {
+                    let triangle = &scene.triangles()[index as usize];
+                    let [a, b, c] = triangle.positions;
+                    let centre = (a + b + c) / 3.0;
+                    let radius = centre
+                        .distance(a)
+                        .max(centre.distance(b))
+                        .max(centre.distance(c));
+                    (centre, radius, triangle.area() / pmf)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         Emitters {
             triangles,
             cdf,
             pmf,
             slot_of_triangle,
+            spheres,
+        }
+    }
+
+    /// The probability that a path's last point at `position` casts its light sample's
+    /// partner ([`Shader::closing_ray`]) under a black sky, where the partner can only meet
+    /// emission. Light sampling picks a point on emitter `t` with solid-angle pdf `p_L =
+    /// pmf_t d² / (A_t cos θ_y)`, the partner with `p_B = cos θ_x / π`; their ratio
+    /// `ρ = p_B / p_L` is at most `ρ_t = A_t / (π pmf_t (d_t − r_t)²)` over the whole emitter
+    /// (`d_t`: the distance to its bounding sphere's centre, `r_t` its radius), and the power
+    /// heuristic gives what the partner meets a weight `ρ² / (1 + ρ²)`. So with `q ≥ K ρ_max`
+    /// (`K` = [`PARTNER_GAIN`]) a partner cast with probability `q` and weighed by `1/q`
+    /// adds at most `Le · albedo · ρ_max / K` to a sample: unbiased (the weights are
+    /// unchanged) and never a firefly, and where every light is small or far the ray is
+    /// saved. 1 inside an emitter's sphere, with many emitters, or none.
+    #[inline]
+    fn partner_probability(&self, position: Vec3) -> f32 {
+        if self.spheres.is_empty() {
+            return 1.0;
+        }
+        let mut reach = 0.0f32;
+        for &(centre, radius, area_over_pmf) in &self.spheres {
+            let gap = centre.distance(position) - radius;
+            if gap.is_nan() || gap <= 0.0 {
+                return 1.0;
+            }
+            reach = reach.max(area_over_pmf / (PI * gap * gap));
+        }
+        if reach.is_finite() {
+            (PARTNER_GAIN * reach).clamp(PARTNER_MIN, 1.0)
+        } else {
+            1.0
         }
     }
 
@@ -371,7 +425,17 @@ impl<'s> Shader<'s> {
             };
             if last {
                 if emitters {
-                    direct += self.closing_ray(&surface, !first_indirect, rng);
+                    // Under a black sky the partner only meets emission, which its MIS
+                    // weight keeps small where every light is small or far: cast it with a
+                    // probability and weigh it by the inverse ([`Emitters::partner_probability`]).
+                    let cast = if self.sky_is_black {
+                        self.emitters.partner_probability(surface.position)
+                    } else {
+                        1.0
+                    };
+                    if cast >= 1.0 || rng.next_f32() < cast {
+                        direct += self.closing_ray(&surface, !first_indirect, rng) / cast;
+                    }
                 } else if !self.sky_is_black {
                     direct += self.sky_light(&surface, rng);
                 }
@@ -947,6 +1011,17 @@ fn departure(scene: &Scene) -> f32 {
     16.0 * (f32::from_bits(largest.to_bits() + 1) - largest)
 }
 
+/// [`Emitters::partner_probability`]'s gain `K`: the partner is always cast where some
+/// emitter's bound `ρ_t` reaches 1/4.
+const PARTNER_GAIN: f32 = 4.0;
+
+/// [`Emitters::partner_probability`]'s floor: at least one path's last point in eight casts
+/// the partner.
+const PARTNER_MIN: f32 = 0.125;
+
+/// Above this many emissive triangles every partner is cast (the bound is a loop over them).
+const PARTNER_BOUND_EMITTERS: usize = 64;
+
 /// The power heuristic (β = 2) weight of a sample drawn with pdf `chosen` against another
 /// strategy with pdf `other` at the same point.
 #[inline]
@@ -984,4 +1059,88 @@ fn shadow_limit(origin: Vec3, target: Vec3, distance: f32, light_cosine: f32) ->
     let scale = target.abs().max_element().max(origin.abs().max_element());
     let ulps = scale * 16.0 * f32::EPSILON / light_cosine.clamp(1e-3, 1.0);
     distance - 1e-4 * distance - ulps
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use probe_scene::{Material, Triangle};
+    use proptest::prelude::*;
+
+    /// Two emitters of different size and power and a floor: the path's partner probability
+    /// from any point bounds what a partner could meet on any emitter point.
+    fn two_lights() -> Scene {
+        let square = |centre: Vec3, half: f32, material: u32| {
+            let c = |dx: f32, dz: f32| centre + Vec3::new(dx, 0.0, dz);
+            [
+                Triangle::flat([c(-half, -half), c(half, half), c(half, -half)], material),
+                Triangle::flat([c(-half, -half), c(-half, half), c(half, half)], material),
+            ]
+        };
+        let mut triangles = square(Vec3::ZERO, 10.0, 0).to_vec();
+        triangles.extend(square(Vec3::new(0.0, 3.0, 0.0), 0.5, 1));
+        triangles.extend(square(Vec3::new(4.0, 2.0, 1.0), 0.1, 2));
+        Scene::from_triangles(
+            "two lights",
+            triangles,
+            vec![
+                Material::diffuse("floor", Vec3::splat(0.5)),
+                Material::emitter("large", Vec3::splat(2.0)),
+                Material::emitter("small", Vec3::splat(40.0)),
+            ],
+            Vec::new(),
+            Vec::new(),
+        )
+        .unwrap()
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(1),
+            ..ProptestConfig::default()
+        })]
+        /// From any point, for any point on any emitter, the cosine-distributed pdf over the
+        /// light sample's (with both cosines at their largest, 1) is at most a quarter of
+        /// the partner probability unless that is 1; it stays within [1/8, 1].
+        #[test]
+        fn partner_probability_bounds_every_emitter_point(
+            point in (-6.0f32..6.0, 0.01f32..5.0, -6.0f32..6.0),
+            slot in 0usize..4,
+            barycentrics in (0.0f32..1.0, 0.0f32..1.0),
+        ) {
+            let scene = two_lights();
+            let emitters = Emitters::new(&scene);
+            prop_assert_eq!(emitters.triangles.len(), 4);
+            let x = Vec3::new(point.0, point.1, point.2);
+            let q = emitters.partner_probability(x);
+            prop_assert!((PARTNER_MIN..=1.0).contains(&q), "{}", q);
+            let triangle = &scene.triangles()[emitters.triangles[slot] as usize];
+            // Folded into the triangle.
+            let (u, v) = if barycentrics.0 + barycentrics.1 > 1.0 {
+                (1.0 - barycentrics.0, 1.0 - barycentrics.1)
+            } else {
+                barycentrics
+            };
+            let y = triangle.point(glam::Vec2::new(u, v));
+            let ratio =
+                triangle.area() / (PI * emitters.pmf[slot] * x.distance_squared(y));
+            prop_assert!(
+                q >= 1.0 || PARTNER_GAIN * ratio <= q * (1.0 + 1e-4),
+                "q {} against the ratio {} at {} (emitter point {})", q, ratio, x, y
+            );
+        }
+    }
+
+    /// Far from small lights the partner is cast at the floor; under a light, always.
+    #[test]
+    fn partner_probability_is_one_near_a_light_and_the_floor_far_away() {
+        let scene = two_lights();
+        let emitters = Emitters::new(&scene);
+        assert_eq!(emitters.partner_probability(Vec3::new(0.0, 2.9, 0.0)), 1.0);
+        assert_eq!(emitters.partner_probability(Vec3::new(4.0, 1.95, 1.0)), 1.0);
+        assert_eq!(
+            emitters.partner_probability(Vec3::new(-9.0, 0.01, -9.0)),
+            PARTNER_MIN
+        );
+    }
 }
