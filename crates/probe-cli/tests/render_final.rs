@@ -56,8 +56,13 @@ fn render_glossy(bake: &Path, tracer: &str, out: &Path, extra: &[&str]) -> Outpu
 
 /// A small bake of the built-in Cornell box (8 grid probes at 16²) in `dir/bake`.
 fn small_cornell_bake(dir: &Path) -> std::path::PathBuf {
-    let bake = dir.join("bake");
-    let output = probes(&[
+    small_cornell_bake_with(dir, "bake", &[])
+}
+
+/// [`small_cornell_bake`] in `dir/name` with `extra` flags.
+fn small_cornell_bake_with(dir: &Path, name: &str, extra: &[&str]) -> std::path::PathBuf {
+    let bake = dir.join(name);
+    let mut args = vec![
         "bake",
         "builtin:cornell",
         "--probes",
@@ -68,7 +73,9 @@ fn small_cornell_bake(dir: &Path) -> std::path::PathBuf {
         "2",
         "--out",
         bake.to_str().unwrap(),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let output = probes(&args);
     assert!(output.status.success(), "{}", stderr(&output));
     bake
 }
@@ -309,22 +316,7 @@ fn the_split_tracer_renders_the_glossy_component_only() {
 fn a_bake_of_reflected_light_is_read_by_the_split_alone() {
     let root = tempfile::tempdir().unwrap();
     let outgoing = small_cornell_bake(root.path());
-    let indirect = root.path().join("indirect");
-    let output = probes(&[
-        "bake",
-        "builtin:cornell",
-        "--probes",
-        "grid:2x2x2",
-        "--res",
-        "16",
-        "--spp",
-        "2",
-        "--radiance",
-        "indirect",
-        "--out",
-        indirect.to_str().unwrap(),
-    ]);
-    assert!(output.status.success(), "{}", stderr(&output));
+    let indirect = small_cornell_bake_with(root.path(), "indirect", &["--radiance", "indirect"]);
     let mut images = Vec::new();
     for (name, bake, made) in [
         ("from-outgoing", &outgoing, "baked for this render"),
