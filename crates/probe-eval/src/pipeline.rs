@@ -300,7 +300,44 @@ pub fn bake_for_view_seeded(
     seed: u64,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
+    let settings = view_bake_settings(resolution, sampling, view, seed);
+    let start = Instant::now();
+    let baked = bake(scene, positions, &settings, progress)?;
+    Ok((baked, start.elapsed().as_secs_f64()))
+}
+
+/// The bake [`Tracer::Split`] reads, made directly for an evaluation: the bake
+/// [`indirect_bake`] makes from [`bake_for_view`]'s, to the byte, without baking the outgoing
+/// radiance first (where the split is the only tracer asked for, that bake is never read).
+///
+/// # Errors
+/// [`EvalError::Bake`] for bad settings or positions.
+pub fn bake_reflected_for_view(
+    scene: &Scene,
+    positions: &[Vec3],
+    resolution: u32,
+    sampling: Sampling,
+    view: &EvalView,
+    progress: Progress<'_>,
+) -> Result<(ProbeBake, f64), EvalError> {
     let settings = BakeSettings {
+        radiance: BakedRadiance::Indirect,
+        denoise: SPLIT_INDIRECT_DENOISE,
+        ..view_bake_settings(resolution, sampling, view, view.settings.seed)
+    };
+    let start = Instant::now();
+    let baked = bake(scene, positions, &settings, progress)?;
+    Ok((baked, start.elapsed().as_secs_f64()))
+}
+
+/// The settings of [`bake_for_view_seeded`].
+fn view_bake_settings(
+    resolution: u32,
+    sampling: Sampling,
+    view: &EvalView,
+    seed: u64,
+) -> BakeSettings {
+    BakeSettings {
         resolution,
         sampling,
         bounces: view.settings.bounces,
@@ -308,10 +345,7 @@ pub fn bake_for_view_seeded(
         environment: Some(view.environment),
         denoise: view.settings.bake_denoise,
         ..BakeSettings::default()
-    };
-    let start = Instant::now();
-    let baked = bake(scene, positions, &settings, progress)?;
-    Ok((baked, start.elapsed().as_secs_f64()))
+    }
 }
 
 /// The probe data of a bake as the tracers take it, without the bake's per-texel distance

@@ -29,8 +29,8 @@ use crate::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_s
 use crate::lighting::place_lit;
 use crate::metrics::{Footprints, TraceMetrics};
 use crate::pipeline::{
-    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view, build_index,
-    compare_trace, trace_only,
+    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view,
+    bake_reflected_for_view, build_index, compare_trace, trace_only,
 };
 use crate::views::{ViewSetOptions, view_set};
 use crate::{EvalError, write_atomic};
@@ -1082,7 +1082,15 @@ pub fn run_sweep(
             log(&format!("{}: {}", scene.name(), spec.name));
             let placed = place_lit(&scene, &spec.options)?;
             // One bake serves every view: the views share the scene's environment and seed.
-            let (baked, bake_seconds) = bake_for_view(
+            // With the split alone, only the bake of the reflected light is read: it is
+            // baked directly (the same bytes as the split's second bake), and its time is the
+            // placement's bake time.
+            let bake_view = if tracers == [Tracer::Split] {
+                bake_reflected_for_view
+            } else {
+                bake_for_view
+            };
+            let (baked, bake_seconds) = bake_view(
                 &scene,
                 &placed.probes.positions,
                 config.resolution,
@@ -1807,6 +1815,12 @@ fn report_markdown(report: &SweepReport) -> String {
         );
     }
     let _ = writeln!(text, "\n## Placements\n");
+    if report.config.tracers().is_ok_and(|t| t == [Tracer::Split]) {
+        let _ = writeln!(
+            text,
+            "With the split the only tracer, each placement's bake is the bake of the light the surfaces reflect that the split reads (`BakedRadiance::Indirect`), made directly; its time is the bake time below.\n"
+        );
+    }
     let _ = writeln!(
         text,
         "| scene | placement | probes | coverage | inside geometry | place (s) | bake (s) | index (s) |"

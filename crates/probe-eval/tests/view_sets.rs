@@ -126,3 +126,47 @@ fn spearman_ranks() {
     let tied = spearman(&a, &[1.0, 1.0, 2.0, 3.0]).unwrap();
     assert!(tied > 0.9 && tied < 1.0, "{tied}");
 }
+
+/// With the split the only tracer, each placement's bake is the split's bake of the reflected
+/// light, made directly: every view's split figures are those of a sweep that bakes the
+/// outgoing radiance for another tracer beside it (and then the reflected light from it), and
+/// the report says what its bake time is.
+#[test]
+fn a_split_only_sweep_bakes_the_reflected_light_alone() {
+    let with_tracers = |tracers: &[&str]| EvalConfig {
+        tracers: tracers.iter().map(|t| (*t).into()).collect(),
+        selections: vec!["voronoi".into()],
+        grid_counts: vec![8],
+        placements: vec!["sdf".into()],
+        ..small_config()
+    };
+    let alone_out = tempfile::tempdir().unwrap();
+    let alone = run_sweep(&with_tracers(&["split"]), alone_out.path(), &|_| {}).unwrap();
+    let beside_out = tempfile::tempdir().unwrap();
+    let beside = run_sweep(
+        &with_tracers(&["shaded", "split"]),
+        beside_out.path(),
+        &|_| {},
+    )
+    .unwrap();
+    let split: Vec<_> = beside
+        .records
+        .iter()
+        .filter(|r| r.trace.tracer == probe_eval::pipeline::Tracer::Split)
+        .collect();
+    assert_eq!(alone.records.len(), split.len());
+    assert!(!split.is_empty());
+    for (a, b) in alone.records.iter().zip(&split) {
+        assert_eq!((&a.camera, &a.placement), (&b.camera, &b.placement));
+        assert_eq!(
+            a.trace.mse_tonemapped, b.trace.mse_tonemapped,
+            "{}",
+            a.camera
+        );
+        assert_eq!(a.trace.rays, b.trace.rays);
+    }
+    let markdown = std::fs::read_to_string(alone_out.path().join("report.md")).unwrap();
+    assert!(markdown.contains("bake of the light the surfaces reflect"));
+    let markdown = std::fs::read_to_string(beside_out.path().join("report.md")).unwrap();
+    assert!(!markdown.contains("bake of the light the surfaces reflect"));
+}
