@@ -576,18 +576,16 @@ impl<'s> Shader<'s> {
             let Some(hit) = self.hit_from_point(surface, direction) else {
                 continue;
             };
-            let emitted = self.emission(&hit, -direction);
-            if emitted.max_element() <= 0.0 || hit.triangle == surface.triangle {
+            if hit.triangle == surface.triangle {
                 continue;
             }
+            let Some((emitted, light_pdf)) = self.emission_met(&hit, direction) else {
+                continue;
+            };
             let cosine_pdf = surface.shading_normal.dot(direction).max(0.0) / PI;
-            let light_cosine = hit.geometric_normal.dot(direction).abs();
-            let weight = self
-                .emitters
-                .solid_angle_pdf(self.scene, hit.triangle, hit.t * hit.t, light_cosine)
-                .map_or(1.0, |light_pdf| {
-                    power_heuristic(cosine_count * cosine_pdf, light_count * light_pdf)
-                });
+            let weight = light_pdf.map_or(1.0, |light_pdf| {
+                power_heuristic(cosine_count * cosine_pdf, light_count * light_pdf)
+            });
             // Cosine sampling: L cos / pdf = π L.
             by_rays += emitted * (weight * PI);
         }
@@ -697,20 +695,32 @@ impl<'s> Shader<'s> {
     /// picks up at its hit, with the power heuristic's weight against light sampling.
     #[inline]
     fn emission_by_bounce(&self, hit: &Hit, direction: Vec3, bsdf_pdf: f32) -> Vec3 {
-        let emitted = self.emission(hit, -direction);
-        if emitted.max_element() <= 0.0 {
+        let Some((emitted, light_pdf)) = self.emission_met(hit, direction) else {
             return Vec3::ZERO;
-        }
-        let light_cosine = hit.geometric_normal.dot(direction).abs();
-        let light_pdf =
-            self.emitters
-                .solid_angle_pdf(self.scene, hit.triangle, hit.t * hit.t, light_cosine);
+        };
         match light_pdf {
             Some(light_pdf) => emitted * power_heuristic(bsdf_pdf, light_pdf),
             // Not in the light table (no light sample can reach it): the bounce ray is the
             // only strategy.
             None => emitted,
         }
+    }
+
+    /// What a ray in unit `direction` meets at `hit` for multiple importance sampling: the
+    /// emission sent back along it and the solid-angle pdf with which light sampling picks
+    /// that point (`None` for a triangle not in the light table); `None` where nothing is
+    /// emitted.
+    #[inline]
+    fn emission_met(&self, hit: &Hit, direction: Vec3) -> Option<(Vec3, Option<f32>)> {
+        let emitted = self.emission(hit, -direction);
+        if emitted.max_element() <= 0.0 {
+            return None;
+        }
+        let light_cosine = hit.geometric_normal.dot(direction).abs();
+        let light_pdf =
+            self.emitters
+                .solid_angle_pdf(self.scene, hit.triangle, hit.t * hit.t, light_cosine);
+        Some((emitted, light_pdf))
     }
 
     /// The surface as seen from `towards_viewer`, or `None` for the back of a single-sided

@@ -301,9 +301,7 @@ pub fn bake_for_view_seeded(
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
     let settings = view_bake_settings(resolution, sampling, view, seed);
-    let start = Instant::now();
-    let baked = bake(scene, positions, &settings, progress)?;
-    Ok((baked, start.elapsed().as_secs_f64()))
+    timed_bake(scene, positions, &settings, progress)
 }
 
 /// The bake [`Tracer::Split`] reads, made directly for an evaluation: the bake
@@ -320,13 +318,24 @@ pub fn bake_reflected_for_view(
     view: &EvalView,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
-    let settings = BakeSettings {
-        radiance: BakedRadiance::Indirect,
-        denoise: SPLIT_INDIRECT_DENOISE,
-        ..view_bake_settings(resolution, sampling, view, view.settings.seed)
-    };
+    let settings = split_bake_settings(view_bake_settings(
+        resolution,
+        sampling,
+        view,
+        view.settings.seed,
+    ));
+    timed_bake(scene, positions, &settings, progress)
+}
+
+/// The bake of `settings` and its wall time in seconds.
+fn timed_bake(
+    scene: &Scene,
+    positions: &[Vec3],
+    settings: &BakeSettings,
+    progress: Progress<'_>,
+) -> Result<(ProbeBake, f64), EvalError> {
     let start = Instant::now();
-    let baked = bake(scene, positions, &settings, progress)?;
+    let baked = bake(scene, positions, settings, progress)?;
     Ok((baked, start.elapsed().as_secs_f64()))
 }
 
@@ -650,12 +659,20 @@ pub const SPLIT_INDIRECT_DENOISE: f32 = 2.0;
 /// # Errors
 /// [`EvalError::Bake`].
 pub fn indirect_bake(scene: &Scene, baked: &ProbeBake) -> Result<ProbeBake, EvalError> {
-    let settings = BakeSettings {
+    let settings = split_bake_settings(baked.settings().clone());
+    Ok(bake(scene, baked.positions(), &settings, &|_, _| {})?)
+}
+
+/// `settings` made those of the bake [`Tracer::Split`] reads: radiance maps holding the light
+/// the surfaces reflect ([`BakedRadiance::Indirect`]), smoothed at [`SPLIT_INDIRECT_DENOISE`].
+/// [`indirect_bake`], [`bake_reflected_for_view`] and `probes bake --radiance indirect` all
+/// make their bakes so, which is why the split reads any of them to the same bytes.
+pub fn split_bake_settings(settings: BakeSettings) -> BakeSettings {
+    BakeSettings {
         radiance: BakedRadiance::Indirect,
         denoise: SPLIT_INDIRECT_DENOISE,
-        ..baked.settings().clone()
-    };
-    Ok(bake(scene, baked.positions(), &settings, &|_, _| {})?)
+        ..settings
+    }
 }
 
 /// Random-number stream of the hybrid's shaded hits.

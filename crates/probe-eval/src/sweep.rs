@@ -320,6 +320,13 @@ fn parse_dims(text: &str) -> Option<[u32; 3]> {
     (parts.len() == 3 && parts.iter().all(|&d| d > 0)).then(|| [parts[0], parts[1], parts[2]])
 }
 
+/// Whether a sweep with `tracers` bakes each placement's reflected light alone
+/// ([`bake_reflected_for_view`]): with the split the only tracer, nothing reads a bake of the
+/// outgoing radiance.
+fn bakes_reflected_light_only(tracers: &[Tracer]) -> bool {
+    tracers == [Tracer::Split]
+}
+
 /// The seed of the view set `+views` placements learn from, for evaluation views seeded
 /// `seed`: never equal to it.
 pub fn training_seed(seed: u64) -> u64 {
@@ -1085,7 +1092,7 @@ pub fn run_sweep(
             // With the split alone, only the bake of the reflected light is read: it is
             // baked directly (the same bytes as the split's second bake), and its time is the
             // placement's bake time.
-            let bake_view = if tracers == [Tracer::Split] {
+            let bake_view = if bakes_reflected_light_only(&tracers) {
                 bake_reflected_for_view
             } else {
                 bake_for_view
@@ -1815,7 +1822,11 @@ fn report_markdown(report: &SweepReport) -> String {
         );
     }
     let _ = writeln!(text, "\n## Placements\n");
-    if report.config.tracers().is_ok_and(|t| t == [Tracer::Split]) {
+    if report
+        .config
+        .tracers()
+        .is_ok_and(|t| bakes_reflected_light_only(&t))
+    {
         let _ = writeln!(
             text,
             "With the split the only tracer, each placement's bake is the bake of the light the surfaces reflect that the split reads (`BakedRadiance::Indirect`), made directly; its time is the bake time below.\n"

@@ -8,7 +8,7 @@ use crate::spec::{MemoryArgs, SunArgs, open_scene_with_limit, probe_set, warning
 use probe_capture::{
     BakeSettings, BakedRadiance, ProbeBake, Sampling, Shard, bake_shard, bake_with_limit,
 };
-use probe_eval::pipeline::SPLIT_INDIRECT_DENOISE;
+use probe_eval::pipeline::split_bake_settings;
 use serde_json::{Value, json};
 use std::ops::Range;
 use std::path::PathBuf;
@@ -95,10 +95,6 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     let limit = args.memory.limit();
     let scene = open_scene_with_limit(&args.scene, limit)?;
     let probes = probe_set(&args.probes, &scene)?;
-    let radiance = match args.radiance {
-        RadianceArg::Outgoing => BakedRadiance::Outgoing,
-        RadianceArg::Indirect => BakedRadiance::Indirect,
-    };
     let settings = BakeSettings {
         resolution: args.res,
         sampling: match args.spp {
@@ -109,13 +105,16 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
         seed: args.seed,
         environment: args.sun.environment(&scene)?,
         surfel_resolution: args.surfels,
-        radiance,
-        denoise: args.denoise.unwrap_or(match radiance {
-            BakedRadiance::Indirect => SPLIT_INDIRECT_DENOISE,
-            BakedRadiance::Outgoing => BakeSettings::default().denoise,
-        }),
         ..BakeSettings::default()
     };
+    // The bake the split reads, as its own second bake is made.
+    let mut settings = match args.radiance {
+        RadianceArg::Outgoing => settings,
+        RadianceArg::Indirect => split_bake_settings(settings),
+    };
+    if let Some(denoise) = args.denoise {
+        settings.denoise = denoise;
+    }
     let progress = bar(0, "baking");
     let start = Instant::now();
     let on_progress = |done: usize, total: usize| {
@@ -296,11 +295,9 @@ impl Report for BakeSummary {
             inside,
         );
         if s.radiance == BakedRadiance::Indirect {
-            text.push_str(
-                "the radiance maps hold the light the surfaces reflect alone (smoothed at ",
-            );
             text.push_str(&format!(
-                "{}): render them with `probes render BAKE --tracer split`\n",
+                "the radiance maps hold the light the surfaces reflect alone (smoothed at {}): \
+                 render them with `probes render BAKE --tracer split`\n",
                 s.denoise
             ));
         }
