@@ -8,7 +8,7 @@ use probe_octa::{
     lobe_mean, surfel_map,
 };
 use probe_scene::memory::{MemoryExceeded, MemoryLimit};
-use probe_scene::{Ray, Scene};
+use probe_scene::{Hit, Ray, Scene};
 
 use crate::environment::Environment;
 use crate::par::*;
@@ -475,21 +475,10 @@ fn trace_texel_geometry(scene: &Scene, ray: &Ray) -> TexelGeometry {
     match scene.closest_hit(ray, f32::INFINITY) {
         Some(hit) => {
             let double_sided = scene.materials()[hit.material as usize].double_sided;
-            let back_face = !hit.front_face && !double_sided;
-            let sign = if !hit.front_face && double_sided {
-                -1.0
-            } else {
-                1.0
-            };
-            let geometric = hit.geometric_normal * sign;
-            let mut normal = hit.shading_normal * sign;
-            if (normal.dot(ray.direction) > 0.0) != (geometric.dot(ray.direction) > 0.0) {
-                normal = geometric;
-            }
             TexelGeometry {
                 distance: hit.t,
-                normal,
-                back_face,
+                normal: stored_normal(scene, &hit, ray.direction),
+                back_face: !hit.front_face && !double_sided,
             }
         }
         None => TexelGeometry {
@@ -497,6 +486,23 @@ fn trace_texel_geometry(scene: &Scene, ray: &Ray) -> TexelGeometry {
             normal: Vec3::ZERO,
             back_face: false,
         },
+    }
+}
+
+/// The normal a texel stores for `hit`, met along `direction` ([`trace_texel_geometry`]).
+fn stored_normal(scene: &Scene, hit: &Hit, direction: Vec3) -> Vec3 {
+    let double_sided = scene.materials()[hit.material as usize].double_sided;
+    let sign = if !hit.front_face && double_sided {
+        -1.0
+    } else {
+        1.0
+    };
+    let geometric = hit.geometric_normal * sign;
+    let normal = hit.shading_normal * sign;
+    if (normal.dot(direction) > 0.0) != (geometric.dot(direction) > 0.0) {
+        geometric
+    } else {
+        normal
     }
 }
 
@@ -769,8 +775,12 @@ fn range_pass(
 /// stacked one after another.
 ///
 /// - **radiance**: linear HDR RGB, the mean of the texel's radiance samples ([`Sampling`])
-///   over its octahedral square, each the [`Shader`]'s outgoing radiance of
-///   the hit (emission + direct light + bounces) or the sky for a miss;
+///   over its octahedral square that meet the surface its centre ray met (facing within 60°
+///   of it and on its plane within two texel angles of its distance; for a sky texel, the
+///   samples that escape; all samples where none does), each the [`Shader`]'s outgoing
+///   radiance of the hit (emission + direct light + bounces) or the sky for a miss. A texel
+///   seen at grazing incidence has samples that pass its surface's edge and meet whatever
+///   lies beyond; left in, its radiance would be a mixture no point of its surface has;
 /// - **normal**: world-space hit normal of the texel-centre ray (zero for misses; pointing
 ///   away from the probe only on back faces of single-sided surfaces, see
 ///   [`ProbeGeometry`]);
@@ -784,7 +794,7 @@ fn range_pass(
 ///   [`BakeSettings::moments_lobe_power`] (probe-octa's [`lobe_mean`] of `(r, r²)`, which is
 ///   [`probe_octa::distance_moments`]) at [`BakeSettings::moments_resolution`] `M`, padded
 ///   `(M+2)²` per probe;
-/// - **irradiance**: cosine-convolved *indirect* radiance ([`irradiance_map`]) at
+/// - **irradiance**: cosine-convolved *indirect* radiance of every sample ([`irradiance_map`]) at
 ///   [`BakeSettings::irradiance_resolution`] `K`, padded `(K+2)²` per probe: the radiance
 ///   without the emission of the surfaces the texels see, so a renderer that adds direct
 ///   light with its own shadows (`probes render --component final`) counts no light source
@@ -1200,10 +1210,81 @@ pub(crate) fn bake_probes(
 /// bias, whatever the sequence's stratification gains (randomised quasi-Monte Carlo).
 pub const NOISE_REPLICATES: u32 = 2;
 
-/// One texel's running sums, per replicate.
+/// The surface a texel's centre ray met (from the geometry pass), which its radiance
+/// describes: a sample counts towards the texel's radiance only where it meets the same
+/// surface ([`TexelSurface::shows`]).
+#[derive(Clone, Copy)]
+struct TexelSurface {
+    /// Where the centre ray met it, relative to the probe; `None` for sky.
+    point: Option<Vec3>,
+    /// Its normal turned towards the probe.
+    normal: Vec3,
+    /// How far from its plane a sample's hit may lie (along `normal`).
+    tolerance: f32,
+}
+
+/// How far from a texel's plane, over the texel's radial distance, a sample's hit may lie and
+/// still count as the texel's surface: twice the texel's angle, the reach the smoothing gives
+/// a neighbour one texel away ([`denoise_probe`]).
+const SURFACE_TOLERANCE_TEXEL_ANGLES: f32 = 2.0;
+
+/// The cosine within which a sample's surface faces like the texel's (60°, the look-up's
+/// `SAME_SURFACE_COS` in `probe-trace-gpu`).
+const SAME_SURFACE_COS: f32 = 0.5;
+
+impl TexelSurface {
+    /// The surface of a texel whose centre ray runs along `direction` and met a surface at
+    /// `distance` with `normal` (a miss: [`MISS_DISTANCE`]) at resolution `n`.
+    fn new(direction: Vec3, distance: f32, normal: Vec3, n: u32) -> TexelSurface {
+        if distance >= 0.5 * MISS_DISTANCE {
+            return TexelSurface {
+                point: None,
+                normal: Vec3::ZERO,
+                tolerance: 0.0,
+            };
+        }
+        let towards = if normal.dot(direction) > 0.0 {
+            -normal
+        } else {
+            normal
+        };
+        TexelSurface {
+            point: Some(direction * distance),
+            normal: towards,
+            tolerance: SURFACE_TOLERANCE_TEXEL_ANGLES * probe_octa::texel_angle(n) * distance,
+        }
+    }
+
+    /// Whether a sample along `direction` that met `hit` (`None`: it escaped) shows this
+    /// surface: both escaped, or the hit lies within the tolerance of the plane and faces
+    /// like it. At grazing incidence a texel's samples fan out along its surface and past its
+    /// edge: those that pass the edge meet what lies beyond (the sky, a lit wall) and would
+    /// make the texel's radiance a mixture no point of its surface has (a wall 20 cm from a
+    /// Sponza probe read the sky's blue three metres away: BENCHMARKS.md, "Texels that show
+    /// one surface").
+    fn shows(&self, scene: &Scene, direction: Vec3, hit: Option<&Hit>) -> bool {
+        match (self.point, hit) {
+            (None, None) => true,
+            (Some(point), Some(hit)) => {
+                let n = stored_normal(scene, hit, direction);
+                let facing = if n.dot(direction) > 0.0 { -n } else { n };
+                facing.dot(self.normal) >= SAME_SURFACE_COS
+                    && (direction * hit.t - point).dot(self.normal).abs() <= self.tolerance
+            }
+            _ => false,
+        }
+    }
+}
+
+/// One texel's running sums, per replicate: of every sample, and of the samples that show the
+/// texel's surface ([`TexelSurface::shows`]).
 #[derive(Clone, Copy, Default)]
 struct TexelSums {
     sums: [Vec3; NOISE_REPLICATES as usize],
+    /// The samples showing the texel's surface, summed per replicate.
+    surface_sums: [Vec3; NOISE_REPLICATES as usize],
+    /// How many of each replicate's samples show it.
+    surface_counts: [u32; NOISE_REPLICATES as usize],
     /// The emission of the samples' hits (the light sources the probe sees directly), summed
     /// over all samples: what the indirect radiance leaves out.
     emitted: Vec3,
@@ -1211,7 +1292,8 @@ struct TexelSums {
 }
 
 impl TexelSums {
-    /// Adds samples `from..to` of texel `(ix, iy)` of probe `probe`.
+    /// Adds samples `from..to` of texel `(ix, iy)` of probe `probe`, whose centre ray met
+    /// `surface`.
     #[allow(
         clippy::too_many_arguments,
         reason = "one texel's full address and range"
@@ -1225,6 +1307,7 @@ impl TexelSums {
         probe: usize,
         n: u32,
         (ix, iy): (u32, u32),
+        surface: &TexelSurface,
         to: u32,
     ) {
         let texel = u64::from(iy) * u64::from(n) + u64::from(ix);
@@ -1243,57 +1326,79 @@ impl TexelSums {
             };
             let (hit, radiance) = match content {
                 BakedRadiance::Outgoing => shader.trace(&ray, &mut sampler),
-                // Nothing emitted is in the sample to leave out afterwards.
-                BakedRadiance::Indirect => (None, shader.trace_indirect(&ray, &mut sampler).1),
+                BakedRadiance::Indirect => shader.trace_indirect(&ray, &mut sampler),
             };
-            self.sums[replicate as usize] += radiance;
-            if let Some(hit) = hit {
+            let r = replicate as usize;
+            self.sums[r] += radiance;
+            if surface.shows(shader.scene(), ray.direction, hit.as_ref()) {
+                self.surface_sums[r] += radiance;
+                self.surface_counts[r] += 1;
+            }
+            // Nothing emitted is in an indirect sample to leave out afterwards.
+            if let (Some(hit), BakedRadiance::Outgoing) = (hit, content) {
                 self.emitted += shader.emission(&hit, -ray.direction);
             }
         }
         self.samples = self.samples.max(to);
     }
 
-    /// The mean of all samples.
+    /// How many samples each replicate holds.
+    fn replicate_counts(&self) -> [u32; NOISE_REPLICATES as usize] {
+        std::array::from_fn(|r| (self.samples.saturating_sub(r as u32)).div_ceil(NOISE_REPLICATES))
+    }
+
+    /// The texel's radiance: the mean of the samples that show its surface, else (no sample
+    /// does: a surface thinner than the samples' spacing) of all of them.
     fn mean(&self) -> Vec3 {
-        self.sums.iter().copied().sum::<Vec3>() / self.samples.max(1) as f32
+        let shown = self.surface_counts.iter().sum::<u32>();
+        if shown > 0 {
+            self.surface_sums.iter().copied().sum::<Vec3>() / shown as f32
+        } else {
+            self.sums.iter().copied().sum::<Vec3>() / self.samples.max(1) as f32
+        }
     }
 
     /// The mean of all samples without the emission of their hits: the light the texel's
-    /// surfaces reflect (exactly zero where the texel sees only emitters of black albedo).
+    /// surfaces reflect (exactly zero where the texel sees only emitters of black albedo),
+    /// over the texel's whole solid angle (the irradiance's source).
     fn indirect_mean(&self) -> Vec3 {
         ((self.sums.iter().copied().sum::<Vec3>() - self.emitted) / self.samples.max(1) as f32)
             .max(Vec3::ZERO)
     }
 
     /// The estimated variance of [`Self::mean`] in tone-mapped units (mean over the three
-    /// channels), from the spread of the replicates' tone-mapped means; `None` with fewer than
-    /// two replicates. The spread is taken after tone mapping, not through the tone map's
-    /// slope at the mean: a texel straddling an emitter's edge has replicates of 0.5 and 17,
-    /// whose tone-mapped values differ by 0.6 while the slope at their mean (8.8) would
-    /// shrink their linear spread to a tenth of that.
+    /// channels), from the spread of the replicates' tone-mapped means (of the samples that
+    /// show the texel's surface where each replicate holds one, else of all); `None` with
+    /// fewer than two replicates. The spread is taken after tone mapping, not through the
+    /// tone map's slope at the mean: a texel straddling an emitter's edge has replicates of
+    /// 0.5 and 17, whose tone-mapped values differ by 0.6 while the slope at their mean (8.8)
+    /// would shrink their linear spread to a tenth of that.
     fn noise(&self) -> Option<f32> {
-        let replicates = self.samples.min(NOISE_REPLICATES);
-        if replicates < 2 {
+        let (sums, counts) = if self.surface_counts.iter().all(|&c| c > 0) {
+            (self.surface_sums, self.surface_counts)
+        } else {
+            (self.sums, self.replicate_counts())
+        };
+        if counts.contains(&0) {
             return None;
         }
-        let total = self.samples as f32;
+        let total = counts.iter().sum::<u32>() as f32;
         let mut weighted = [(0.0f32, Vec3::ZERO); NOISE_REPLICATES as usize];
         let mut mean = Vec3::ZERO;
-        for r in 0..replicates {
-            // Replicate r holds the samples k ≡ r (mod NOISE_REPLICATES).
-            let count = (self.samples - r).div_ceil(NOISE_REPLICATES) as f32;
+        for r in 0..NOISE_REPLICATES as usize {
+            let count = counts[r] as f32;
             let share = count / total;
-            let value = tone(self.sums[r as usize] / count);
-            weighted[r as usize] = (share, value);
+            let value = tone(sums[r] / count);
+            weighted[r] = (share, value);
             mean += value * share;
         }
         let mut spread = Vec3::ZERO;
-        for &(share, value) in &weighted[..replicates as usize] {
+        for &(share, value) in &weighted {
             let d = (value - mean) * share;
             spread += d * d;
         }
-        let variance = spread * (replicates as f32 / (replicates - 1) as f32);
+        let replicates = NOISE_REPLICATES as f32;
+        let variance = spread * (replicates / (replicates - 1.0));
         Some(variance.element_sum() / 3.0)
     }
 }
@@ -1510,6 +1615,20 @@ fn radiance_pass(
         .enumerate()
         .map(|(local, ((map, reflected_map), &origin))| {
             let probe = first_probe + local;
+            let probe_distances = &geometry.distances[local * len..(local + 1) * len];
+            let probe_normals = &geometry.normals[local * len..(local + 1) * len];
+            let surfaces: Vec<TexelSurface> = (0..nu * nu)
+                .map(|t| {
+                    let (ix, iy) = ((t % nu) as u32, (t / nu) as u32);
+                    let padded = layout.padded_index(ix + 1, iy + 1);
+                    TexelSurface::new(
+                        layout.texel_direction(ix, iy),
+                        probe_distances[padded],
+                        probe_normals[padded],
+                        n,
+                    )
+                })
+                .collect();
             let sample_rows = |texels: &mut [TexelSums], counts: Option<&[u32]>| {
                 texels.par_chunks_mut(nu).enumerate().for_each(|(iy, row)| {
                     for (ix, texel) in row.iter_mut().enumerate() {
@@ -1522,6 +1641,7 @@ fn radiance_pass(
                             probe,
                             n,
                             (ix as u32, iy as u32),
+                            &surfaces[iy * nu + ix],
                             to,
                         );
                     }
@@ -1556,8 +1676,8 @@ fn radiance_pass(
                     layout,
                     map,
                     &texels,
-                    &geometry.distances[local * len..(local + 1) * len],
-                    &geometry.normals[local * len..(local + 1) * len],
+                    probe_distances,
+                    probe_normals,
                     settings.denoise,
                 );
             }
@@ -1773,5 +1893,109 @@ mod tests {
         let mut repadded = coarse.clone();
         repadded.pad();
         assert_eq!(repadded, coarse);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            rng_seed: proptest::test_runner::RngSeed::Fixed(3),
+            cases: 256,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+        /// Whatever the probe and texel, the texel's centre ray (what its distance and normal
+        /// describe) shows the texel's surface, so a texel whose samples all meet that
+        /// surface keeps the mean of all of them; and a sample one texel-angle off meets the
+        /// same surface wherever the texel sees a wall head on.
+        #[test]
+        fn a_texels_centre_ray_shows_its_surface(
+            x in 0.01f32..0.55,
+            y in 0.01f32..0.54,
+            z in 0.01f32..0.55,
+            resolution_log2 in 2u32..7,
+            u in 0.0f32..1.0,
+            v in 0.0f32..1.0,
+        ) {
+            let scene = Scene::builtin("cornell").unwrap();
+            let n = 1u32 << resolution_log2;
+            let layout = OctaLayout::new(n).unwrap();
+            let (ix, iy) = (((u * n as f32) as u32).min(n - 1), ((v * n as f32) as u32).min(n - 1));
+            let direction = layout.texel_direction(ix, iy);
+            let origin = Vec3::new(x, y, z);
+            let ray = Ray { origin, direction };
+            let geometry = trace_texel_geometry(&scene, &ray);
+            let surface = TexelSurface::new(direction, geometry.distance, geometry.normal, n);
+            let hit = scene.closest_hit(&ray, f32::INFINITY);
+            proptest::prop_assert!(surface.shows(&scene, direction, hit.as_ref()));
+        }
+    }
+
+    /// A probe 20 cm from a black wall that ends a metre to its side, under the default
+    /// daylight: the texels that see the wall at grazing incidence near its end have samples
+    /// that pass the end and meet the sky. Their radiance is the wall's (black), not a mixture
+    /// with the sky, while the irradiance (from every sample) still holds the sky they see.
+    #[test]
+    fn grazing_texels_hold_their_own_surface_not_what_lies_past_its_edge() {
+        let black = probe_scene::Material::diffuse("black wall", Vec3::ZERO);
+        let corners = [
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::new(-1.0, 2.0, 0.0),
+        ];
+        let triangles = vec![
+            probe_scene::Triangle::flat([corners[0], corners[1], corners[2]], 0),
+            probe_scene::Triangle::flat([corners[0], corners[2], corners[3]], 0),
+        ];
+        let scene =
+            Scene::from_triangles("black wall", triangles, vec![black], vec![], vec![]).unwrap();
+        let probe = Vec3::new(0.0, 1.0, 0.2);
+        let n = 32;
+        let settings = BakeSettings {
+            resolution: n,
+            sampling: Sampling::fixed(16),
+            bounces: 0,
+            ..BakeSettings::default()
+        };
+        let baked = bake(&scene, &[probe], &settings, &no_progress).unwrap();
+        let map = baked.radiance_map(0).unwrap();
+        let layout = OctaLayout::new(n).unwrap();
+        let (mut straddling, mut wall_texels) = (0, 0);
+        for iy in 0..n {
+            for ix in 0..n {
+                let direction = layout.texel_direction(ix, iy);
+                let ray = Ray {
+                    origin: probe,
+                    direction,
+                };
+                if scene.closest_hit(&ray, f32::INFINITY).is_none() {
+                    continue;
+                }
+                wall_texels += 1;
+                assert_eq!(map.get(ix, iy).unwrap(), Vec3::ZERO, "texel ({ix}, {iy})");
+                // Does the texel's footprint reach past the wall (one corner of it misses)?
+                let step = 2.0 / n as f32;
+                let corner_misses =
+                    [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+                        .iter()
+                        .any(|&(a, b)| {
+                            let q = Vec2::new(
+                                -1.0 + (ix as f32 + a) * step,
+                                -1.0 + (iy as f32 + b) * step,
+                            );
+                            let ray = Ray {
+                                origin: probe,
+                                direction: probe_octa::decode(q),
+                            };
+                            scene.closest_hit(&ray, f32::INFINITY).is_none()
+                        });
+                straddling += u32::from(corner_misses);
+            }
+        }
+        // The test sees the case it is about: wall texels whose samples reach the sky.
+        assert!(wall_texels > 100, "{wall_texels}");
+        assert!(straddling > 10, "{straddling}");
+        // The sky the samples past the wall met still lights the probe's irradiance from
+        // the wall's side.
+        let irradiance = baked.irradiance_map(0).unwrap();
+        assert!(irradiance.sample_nearest(-Vec3::Z).max_element() > 0.0);
     }
 }
