@@ -1223,6 +1223,20 @@ struct TexelSurface {
     tolerance: f32,
 }
 
+/// Whether a texel's stored radial distance marks sky (a miss stores [`MISS_DISTANCE`]).
+fn is_sky(distance: f32) -> bool {
+    distance >= 0.5 * MISS_DISTANCE
+}
+
+/// `normal` turned to face back along `direction` (towards where a ray along it came from).
+fn facing_back(normal: Vec3, direction: Vec3) -> Vec3 {
+    if normal.dot(direction) > 0.0 {
+        -normal
+    } else {
+        normal
+    }
+}
+
 /// How far from a texel's plane, over the texel's radial distance, a sample's hit may lie and
 /// still count as the texel's surface: twice the texel's angle, the reach the smoothing gives
 /// a neighbour one texel away ([`denoise_probe`]).
@@ -1236,21 +1250,16 @@ impl TexelSurface {
     /// The surface of a texel whose centre ray runs along `direction` and met a surface at
     /// `distance` with `normal` (a miss: [`MISS_DISTANCE`]) at resolution `n`.
     fn new(direction: Vec3, distance: f32, normal: Vec3, n: u32) -> TexelSurface {
-        if distance >= 0.5 * MISS_DISTANCE {
+        if is_sky(distance) {
             return TexelSurface {
                 point: None,
                 normal: Vec3::ZERO,
                 tolerance: 0.0,
             };
         }
-        let towards = if normal.dot(direction) > 0.0 {
-            -normal
-        } else {
-            normal
-        };
         TexelSurface {
             point: Some(direction * distance),
-            normal: towards,
+            normal: facing_back(normal, direction),
             tolerance: SURFACE_TOLERANCE_TEXEL_ANGLES * probe_octa::texel_angle(n) * distance,
         }
     }
@@ -1266,8 +1275,7 @@ impl TexelSurface {
         match (self.point, hit) {
             (None, None) => true,
             (Some(point), Some(hit)) => {
-                let n = stored_normal(scene, hit, direction);
-                let facing = if n.dot(direction) > 0.0 { -n } else { n };
+                let facing = facing_back(stored_normal(scene, hit, direction), direction);
                 facing.dot(self.normal) >= SAME_SURFACE_COS
                     && (direction * hit.t - point).dot(self.normal).abs() <= self.tolerance
             }
@@ -1542,7 +1550,7 @@ fn denoise_probe(
             let i = iy as usize * nu + ix as usize;
             let pi = padded(ix, iy);
             let (di, ni) = (distances[pi], normals[pi]);
-            let sky_i = di >= 0.5 * MISS_DISTANCE;
+            let sky_i = is_sky(di);
             let qi = layout.texel_direction(ix as u32, iy as u32) * di;
             let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
             for dy in -2..=2i32 {
@@ -1551,7 +1559,7 @@ fn denoise_probe(
                     let j = y as usize * nu + x as usize;
                     let pj = padded(x, y);
                     let dj = distances[pj];
-                    if (dj >= 0.5 * MISS_DISTANCE) != sky_i {
+                    if is_sky(dj) != sky_i {
                         continue;
                     }
                     if !sky_i {
