@@ -790,10 +790,13 @@ impl<'a> Plan<'a> {
                 });
         }
 
-        for &(name, y) in &self.floors {
-            let style = RGBColor(120, 120, 120).stroke_width(px(2.0) as u32);
+        for (i, &(name, y)) in self.floors.iter().enumerate() {
+            // Floors told apart by shade and dash: the first grey with long dashes, the
+            // next dark with short ones.
+            let (shade, segments) = if i % 2 == 0 { (120, 24) } else { (40, 60) };
+            let style = RGBColor(shade, shade, shade).stroke_width(px(2.0) as u32);
             let (x0, x1) = self.x_range;
-            // Dashed: 24 segments, every other drawn (evenly in the axis' own scale).
+            // Dashed: every other segment drawn (evenly in the axis' own scale).
             let at = |t: f64| {
                 if self.x_axis.log {
                     (x0.ln() + (x1.ln() - x0.ln()) * t).exp()
@@ -801,17 +804,33 @@ impl<'a> Plan<'a> {
                     x0 + (x1 - x0) * t
                 }
             };
-            let dashes = (0..24)
-                .step_by(2)
-                .map(|k| vec![(at(k as f64 / 24.0), y), (at((k + 1) as f64 / 24.0), y)]);
+            let dashes = (0..segments).step_by(2).map(|k| {
+                vec![
+                    (at(f64::from(k) / f64::from(segments)), y),
+                    (at(f64::from(k + 1) / f64::from(segments)), y),
+                ]
+            });
             let half = px(14.0) as i32;
+            // The legend's glyph: two long dashes, or four short ones.
+            let long = i % 2 == 0;
+            let dash = move |from: i32, to: i32| PathElement::new(vec![(from, 0), (to, 0)], style);
             chart
                 .draw_series(dashes.map(|d| PathElement::new(d, style)))?
                 .label(name)
                 .legend(move |(lx, ly)| {
+                    // Four pieces either way (one element type): the long dashes are two
+                    // pieces each, end to end.
+                    let (q, t) = (half / 4, half / 3);
+                    let [a, b, c, d] = if long {
+                        [(-half, -2 * t), (-2 * t, -t), (t, 2 * t), (2 * t, half)]
+                    } else {
+                        [(-half, -3 * q), (-2 * q, -q), (q, 2 * q), (3 * q, half)]
+                    };
                     EmptyElement::at((lx + half, ly))
-                        + PathElement::new(vec![(-half, 0), (-half / 3, 0)], style)
-                        + PathElement::new(vec![(half / 3, 0), (half, 0)], style)
+                        + dash(a.0, a.1)
+                        + dash(b.0, b.1)
+                        + dash(c.0, c.1)
+                        + dash(d.0, d.1)
                 });
         }
 

@@ -65,6 +65,9 @@ pub struct TraceMetrics {
     /// [`probe_capture::ProbeBake::noise`], is a mean over its texels, not over what an
     /// image reads.)
     pub bake_noise: Option<f64>,
+    /// The tone-mapped MSE of the same trace through that second bake, when measured: the
+    /// figure `mse_tonemapped` would have been with another seed.
+    pub second_bake_mse_tonemapped: Option<f64>,
     /// Each pixel class's share of the pixels and of `mse_tonemapped` ([`classify_pixels`]).
     pub classes: Vec<ClassShare>,
 }

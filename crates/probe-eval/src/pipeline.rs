@@ -305,8 +305,10 @@ pub fn bake_for_view_seeded(
 }
 
 /// The bake [`Tracer::Split`] reads, made directly for an evaluation: the bake
-/// [`indirect_bake`] makes from [`bake_for_view`]'s, to the byte, without baking the outgoing
-/// radiance first (where the split is the only tracer asked for, that bake is never read).
+/// [`indirect_bake`] makes from [`bake_for_view_seeded`]'s of the same `seed`, to the byte,
+/// without baking the outgoing radiance first (where the split is the only tracer asked for,
+/// that bake is never read). The view's own seed gives [`bake_for_view`]'s counterpart;
+/// another gives an independent bake, for the bake's noise.
 ///
 /// # Errors
 /// [`EvalError::Bake`] for bad settings or positions.
@@ -316,14 +318,10 @@ pub fn bake_reflected_for_view(
     resolution: u32,
     sampling: Sampling,
     view: &EvalView,
+    seed: u64,
     progress: Progress<'_>,
 ) -> Result<(ProbeBake, f64), EvalError> {
-    let settings = split_bake_settings(view_bake_settings(
-        resolution,
-        sampling,
-        view,
-        view.settings.seed,
-    ));
+    let settings = split_bake_settings(view_bake_settings(resolution, sampling, view, seed));
     timed_bake(scene, positions, &settings, progress)
 }
 
@@ -1238,6 +1236,7 @@ pub fn compare_trace(
         flip: flip(image, &view.reference_image)?.1,
         reference_noise: view.reference_noise.noise,
         bake_noise,
+        second_bake_mse_tonemapped: None,
         classes: classes.shares(image, &view.reference_image),
     };
     Ok((metrics, classes))

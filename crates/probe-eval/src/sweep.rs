@@ -27,10 +27,10 @@ use probe_place::pipeline::{Method, Optimizer, PlaceError, PlaceOptions};
 use crate::chart::{ChartSpec, Point, Series, SeriesStyle, write_chart};
 use crate::failures::{FailureOptions, FailureReport, SharedScenes, run_failure_suite};
 use crate::lighting::place_lit;
-use crate::metrics::{Footprints, TraceMetrics};
+use crate::metrics::{Footprints, TraceMetrics, tonemapped_mse};
 use crate::pipeline::{
-    Device, EvalView, ProbeMemory, Selection, Tracer, ViewSettings, bake_for_view,
-    bake_reflected_for_view, build_index, compare_trace, trace_only,
+    BuiltIndex, Device, EvalView, HitShading, ProbeMemory, Selection, Tracer, ViewSettings,
+    bake_for_view_seeded, bake_reflected_for_view, build_index, compare_trace, trace_only,
 };
 use crate::views::{ViewSetOptions, view_set};
 use crate::{EvalError, write_atomic};
@@ -109,6 +109,12 @@ pub struct EvalConfig {
     /// `~E` targets then checked on a second view set of another seed), against the default's
     /// stricter one (placed from views the evaluation never renders). The report says which.
     pub learn_from_evaluation_views: bool,
+    /// Bake every placement a second time with another seed (the view's seed + 1), trace
+    /// each view through both and report each image's bake noise: half the tone-mapped MSE
+    /// between the two images, the variance one bake's image carries
+    /// ([`TraceMetrics::bake_noise`]). Every other figure is the first bake's, as without it;
+    /// the bakes and traces take twice as long.
+    pub measure_bake_noise: bool,
 }
 
 /// One scene of the sweep.
@@ -194,6 +200,7 @@ impl Default for EvalConfig {
             view_seed: 1,
             training_views: 64,
             learn_from_evaluation_views: false,
+            measure_bake_noise: false,
         }
     }
 }
@@ -327,6 +334,40 @@ fn bakes_reflected_light_only(tracers: &[Tracer]) -> bool {
     tracers == [Tracer::Split]
 }
 
+/// The shading of BVH hits the light field does not answer that `tracers` read, for `baked`
+/// (with the bake of the light the surfaces reflect when the split is asked for); `None`
+/// when no tracer traces the BVH.
+fn hit_shading_for_tracers<'s>(
+    device: &mut Device,
+    tracers: &[Tracer],
+    scene: &'s Scene,
+    baked: &probe_capture::ProbeBake,
+    index: &BuiltIndex,
+) -> Result<Option<HitShading<'s>>, EvalError> {
+    if tracers.contains(&Tracer::Split) {
+        device.hit_shading_for(Tracer::Split, scene, baked, index)
+    } else if tracers.iter().any(|t| t.uses_bvh()) {
+        device.hit_shading(scene, baked, index)
+    } else {
+        Ok(None)
+    }
+}
+
+/// A bake-noise cell of the report: the noise, or "not measured".
+fn noise_cell(noise: Option<f64>) -> String {
+    noise.map_or("not measured".to_owned(), |n| format!("{n:.1e}"))
+}
+
+/// A ratio cell of the report that may be unmeasured.
+fn ratio_cell(ratio: Option<f64>) -> String {
+    ratio.map_or("not measured".to_owned(), |r| format!("{r:.2}"))
+}
+
+/// An MSE cell of the report that may be unmeasured (the second bake's).
+fn mse_cell(mse: Option<f64>) -> String {
+    mse.map_or("not measured".to_owned(), |m| format!("{m:.3e}"))
+}
+
 /// The seed of the view set `+views` placements learn from, for evaluation views seeded
 /// `seed`: never equal to it.
 pub fn training_seed(seed: u64) -> u64 {
@@ -337,6 +378,8 @@ pub fn training_seed(seed: u64) -> u64 {
 struct Pending {
     record: SweepRecord<()>,
     traced: crate::pipeline::TracedView,
+    /// The same trace through the second bake ([`EvalConfig::measure_bake_noise`]).
+    twin: Option<Image>,
     resolution: u32,
     positions: Vec<Vec3>,
 }
@@ -411,6 +454,11 @@ pub fn mean_over_views(records: &[SweepRecord]) -> Vec<SweepRecord> {
             bake_noise: group
                 .iter()
                 .map(|r| r.trace.bake_noise)
+                .sum::<Option<f64>>()
+                .map(|sum| sum / n),
+            second_bake_mse_tonemapped: group
+                .iter()
+                .map(|r| r.trace.second_bake_mse_tonemapped)
                 .sum::<Option<f64>>()
                 .map(|sum| sum / n),
             classes,
@@ -735,6 +783,10 @@ pub struct Headline {
     /// Per scene: fewest probes of an automatic placement that match the best grid's MSE,
     /// divided by that grid's probe count (goal ≤ 0.4).
     pub probes_to_match_best_grid: BTreeMap<String, Option<MatchFigure>>,
+    /// Per scene whose bake noise was measured ([`EvalConfig::measure_bake_noise`]): the
+    /// same, judged by [`noise_free_error`] (the best grid the one with the least; `grid_mse`
+    /// and `mse` hold the errors with the noise taken out).
+    pub probes_to_match_best_grid_noise_free: BTreeMap<String, Option<MatchFigure>>,
     /// Per scene and grid: MSE of the minimal set of the grid's probe count divided by the
     /// grid's MSE (goal ≤ 0.25).
     pub mse_at_equal_count: BTreeMap<String, Vec<EqualCountFigure>>,
@@ -827,10 +879,14 @@ pub struct MatchFigure {
     pub mse: f64,
     /// probes / grid_probes.
     pub ratio: f64,
-    /// The scene's worst grid's MSE over its best grid's (at least 1). Near 1 (below
+    /// The scene's worst grid's error over its best grid's (by the same error; at least 1). Near 1 (below
     /// [`FLAT_GRID_SPREAD`]) the scene's error hardly moves with the probe count, so matching
     /// the best grid with few probes says little about placement.
     pub grid_spread: f64,
+    /// The grid's image bake noise ([`EvalConfig::measure_bake_noise`]; `None` unmeasured).
+    pub grid_bake_noise: Option<f64>,
+    /// The placement's image bake noise.
+    pub bake_noise: Option<f64>,
 }
 
 impl MatchFigure {
@@ -862,6 +918,28 @@ pub struct EqualCountFigure {
     pub mse: f64,
     /// mse / grid_mse.
     pub ratio: f64,
+    /// The grid's image bake noise ([`EvalConfig::measure_bake_noise`]; `None` unmeasured).
+    pub grid_bake_noise: Option<f64>,
+    /// The placement's image bake noise.
+    pub bake_noise: Option<f64>,
+    /// The ratio through both second bakes (another seed), when measured.
+    pub second_bake_ratio: Option<f64>,
+    /// The ratio of the two [`noise_free_error`]s, when the bake noise was measured.
+    pub noise_free_ratio: Option<f64>,
+}
+
+/// A record's error with the noise taken out, when its bake noise was measured
+/// ([`EvalConfig::measure_bake_noise`]): the mean of its two bakes' tone-mapped MSEs less the
+/// image's bake noise and the reference's noise. Each bake's MSE is, in expectation, the
+/// squared bias of the image its probes converge to plus the variance its bake and the
+/// reference add, and those two variances are what the bake noise and the reference noise
+/// estimate; so this estimates what a converged bake would score against a converged
+/// reference (at least 0). Placements whose bakes are noisier by different amounts are then
+/// compared on what their probes can show, not on their Monte Carlo noise.
+pub fn noise_free_error(record: &SweepRecord) -> Option<f64> {
+    let t = &record.trace;
+    let (noise, second) = (t.bake_noise?, t.second_bake_mse_tonemapped?);
+    Some((0.5 * (t.mse_tonemapped + second) - noise - t.reference_noise).max(0.0))
 }
 
 fn median_min_max(mut values: Vec<f64>) -> Option<[f64; 3]> {
@@ -916,27 +994,42 @@ fn headline(records: &[SweepRecord]) -> Headline {
         let best_grid = grids
             .iter()
             .min_by(|a, b| a.trace.mse_tonemapped.total_cmp(&b.trace.mse_tonemapped));
-        let worst_grid = grids
-            .iter()
-            .map(|g| g.trace.mse_tonemapped)
-            .fold(0.0, f64::max);
-        let matched = best_grid.and_then(|g| {
+        // The automatic placement with the fewest probes whose `error` is at most the best
+        // grid's (the grid with the least `error`).
+        let fewest_matching = |error: &dyn Fn(&SweepRecord) -> f64| {
+            let g = grids.iter().min_by(|a, b| error(a).total_cmp(&error(b)))?;
             autos
                 .iter()
-                .filter(|a| a.trace.mse_tonemapped <= g.trace.mse_tonemapped)
+                .filter(|a| error(a) <= error(g))
                 .min_by_key(|a| a.probes)
                 .map(|a| MatchFigure {
                     grid: g.placement.clone(),
                     grid_probes: g.probes,
-                    grid_mse: g.trace.mse_tonemapped,
+                    grid_mse: error(g),
                     placement: a.placement.clone(),
                     probes: a.probes,
-                    mse: a.trace.mse_tonemapped,
+                    mse: error(a),
                     ratio: a.probes as f64 / g.probes as f64,
-                    grid_spread: worst_grid / g.trace.mse_tonemapped,
+                    grid_spread: grids.iter().map(|g| error(g)).fold(0.0, f64::max) / error(g),
+                    grid_bake_noise: g.trace.bake_noise,
+                    bake_noise: a.trace.bake_noise,
                 })
-        });
-        h.probes_to_match_best_grid.insert(scene.clone(), matched);
+        };
+        h.probes_to_match_best_grid.insert(
+            scene.clone(),
+            best_grid.and_then(|_| fewest_matching(&|r| r.trace.mse_tonemapped)),
+        );
+        if grids
+            .iter()
+            .chain(&autos)
+            .all(|r| noise_free_error(r).is_some())
+            && !grids.is_empty()
+        {
+            h.probes_to_match_best_grid_noise_free.insert(
+                scene.clone(),
+                fewest_matching(&|r| noise_free_error(r).unwrap_or(f64::INFINITY)),
+            );
+        }
         let mut equal = Vec::new();
         for g in &grids {
             // The best automatic placement with at most the grid's probes, preferring the
@@ -954,6 +1047,16 @@ fn headline(records: &[SweepRecord]) -> Headline {
                     placement_probes: a.probes,
                     mse: a.trace.mse_tonemapped,
                     ratio: a.trace.mse_tonemapped / g.trace.mse_tonemapped,
+                    grid_bake_noise: g.trace.bake_noise,
+                    bake_noise: a.trace.bake_noise,
+                    second_bake_ratio: a
+                        .trace
+                        .second_bake_mse_tonemapped
+                        .zip(g.trace.second_bake_mse_tonemapped)
+                        .map(|(a, g)| a / g),
+                    noise_free_ratio: noise_free_error(a)
+                        .zip(noise_free_error(g))
+                        .map(|(a, g)| a / g),
                 });
             }
         }
@@ -1095,16 +1198,20 @@ pub fn run_sweep(
             let bake_view = if bakes_reflected_light_only(&tracers) {
                 bake_reflected_for_view
             } else {
-                bake_for_view
+                bake_for_view_seeded
             };
-            let (baked, bake_seconds) = bake_view(
-                &scene,
-                &placed.probes.positions,
-                config.resolution,
-                config.sampling(),
-                &views[0],
-                &|_, _| {},
-            )?;
+            let bake_seeded = |seed| {
+                bake_view(
+                    &scene,
+                    &placed.probes.positions,
+                    config.resolution,
+                    config.sampling(),
+                    &views[0],
+                    seed,
+                    &|_, _| {},
+                )
+            };
+            let (baked, bake_seconds) = bake_seeded(views[0].settings.seed)?;
             let grid = placed
                 .full_grid
                 .and_then(|_| ProbeGrid::detect(baked.positions()));
@@ -1129,10 +1236,14 @@ pub fn run_sweep(
             let view_proxy_error = proxy.as_ref().map(|p| p.error(baked.positions()));
             // The BVH tracers' shading of hits the light field does not answer (with the
             // bake of the light the surfaces reflect when the split is asked for).
-            let shading = if tracers.contains(&Tracer::Split) {
-                device.hit_shading_for(Tracer::Split, &scene, &baked, &index)?
-            } else if tracers.iter().any(|t| t.uses_bvh()) {
-                device.hit_shading(&scene, &baked, &index)?
+            let shading = hit_shading_for_tracers(&mut device, &tracers, &scene, &baked, &index)?;
+            // A second, independent bake of the same probes (same index: it depends on the
+            // positions alone) for each image's bake noise.
+            let twin = if config.measure_bake_noise {
+                let (second, _) = bake_seeded(views[0].settings.seed + 1)?;
+                let shading =
+                    hit_shading_for_tracers(&mut device, &tracers, &scene, &second, &index)?;
+                Some((second, shading))
             } else {
                 None
             };
@@ -1152,6 +1263,21 @@ pub fn run_sweep(
                         )?
                         else {
                             continue;
+                        };
+                        let twin = match &twin {
+                            Some((second, shading)) => trace_only(
+                                &mut device,
+                                &scene,
+                                second,
+                                &index,
+                                view,
+                                &rays[v],
+                                tracer,
+                                selection,
+                                shading.as_ref(),
+                            )?
+                            .map(|t| t.image),
+                            None => None,
                         };
                         let mb = |bytes: u64| bytes as f64 / 1e6;
                         let selection_mb = mb(selection.bytes(&index));
@@ -1186,6 +1312,7 @@ pub fn run_sweep(
                         pending[v].push(Pending {
                             record,
                             traced,
+                            twin,
                             resolution: baked.resolution(),
                             positions: baked.positions().to_vec(),
                         });
@@ -1217,8 +1344,17 @@ pub fn run_sweep(
                 // The bake's own estimate is a mean over its texels; an image inherits the
                 // noise of the texels it reads, 1.1× that mean on the Cornell box but 4–5× on
                 // Sponza (BENCHMARKS.md, "Bakes that converge"), so it is reported apart
-                // (`bake_texel_noise`) and the image's bake noise stays unmeasured here.
-                let (trace, _) = compare_trace(footprints, view, &p.traced, None)?;
+                // (`bake_texel_noise`), and the image's bake noise is measured from a second
+                // bake where asked (`measure_bake_noise`).
+                let bake_noise = p
+                    .twin
+                    .as_ref()
+                    .map(|twin| tonemapped_mse(&p.traced.image, twin) / 2.0);
+                let (mut trace, _) = compare_trace(footprints, view, &p.traced, bake_noise)?;
+                trace.second_bake_mse_tonemapped = p
+                    .twin
+                    .as_ref()
+                    .map(|twin| tonemapped_mse(twin, &view.reference_image));
                 records.push(p.record.with_trace(trace));
             }
             reference_seconds.insert(
@@ -1287,13 +1423,13 @@ pub fn run_sweep(
 fn to_csv(records: &[SweepRecord]) -> String {
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
     let mut text = String::from(
-        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,flip,samples_per_texel,bake_texel_noise,views,worst_view,worst_view_mse_tonemapped,view_proxy_error,target_error,training_proxy_error\n",
+        "scene,camera,placement,family,probes,coverage,probes_inside_geometry,place_seconds,bake_seconds,index_seconds,distance_mb,other_mb,selection_mb,total_mb,tracer,selection,rays,trace_ms,wall_ms,gpu_timestamps,fetches_per_ray,probes_per_ray,hit_rate,unknown_rate,status_agreement,within_footprint,mean_position_error,ray_mse,mse,relative_mse,psnr,mse_tonemapped,reference_noise,bake_noise,second_bake_mse_tonemapped,flip,samples_per_texel,bake_texel_noise,views,worst_view,worst_view_mse_tonemapped,view_proxy_error,target_error,training_proxy_error\n",
     );
     for r in records {
         let t = &r.trace;
         let _ = writeln!(
             text,
-            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{:.6},{:.3},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{:.6},{},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{:.4},{},{},{},{:.4},{:.4},{},{:.3},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.4},{:.6e},{:.6e},{},{},{:.6},{:.3},{},{},{},{},{},{},{}",
             r.scene,
             r.camera,
             r.placement,
@@ -1327,9 +1463,11 @@ fn to_csv(records: &[SweepRecord]) -> String {
             t.psnr,
             t.mse_tonemapped,
             t.reference_noise,
-            // Not measured in the sweep (one bake per placement): an empty cell, never a
-            // made-up figure. The bake's own texel figure follows, apart.
+            // Measured only with `measure_bake_noise` (else an empty cell, never a made-up
+            // figure), as the second bake's MSE. The bake's own texel figure follows, apart.
             t.bake_noise.map_or(String::new(), |n| format!("{n:.6e}")),
+            t.second_bake_mse_tonemapped
+                .map_or(String::new(), |n| format!("{n:.6e}")),
             t.flip,
             r.samples_per_texel,
             r.bake_texel_noise
@@ -1488,6 +1626,16 @@ fn write_charts(
                 spec.floors.push(crate::chart::Floor {
                     name: format!("reference noise floor ({floor:.1e})"),
                     y: floor,
+                });
+            }
+            // And the images' bake noise where it was measured (`measure_bake_noise`): the
+            // median over the chart's records, below which errors are as much the bakes'
+            // noise as the placements'.
+            let bake_noises: Vec<f64> = records.iter().filter_map(|r| r.trace.bake_noise).collect();
+            if let Some([median, _, _]) = median_min_max(bake_noises).filter(|m| m[0] > 0.0) {
+                spec.floors.push(crate::chart::Floor {
+                    name: format!("bake noise, median over the placements ({median:.1e})"),
+                    y: median,
                 });
             }
             let png = out.join(format!("{stem}_{}.png", slug(scene)));
@@ -1658,6 +1806,43 @@ fn report_markdown(report: &SweepReport) -> String {
             }
         }
     }
+    if !h.probes_to_match_best_grid_noise_free.is_empty() {
+        let _ = writeln!(
+            text,
+            "\nWith the noise taken out (`measure_bake_noise`: each error is the mean of the placement's two bakes' MSEs, seeds s and s + 1, less the image's bake noise — half the tone-mapped MSE between the two images — and the reference's noise: what converged bakes would score against a converged reference):\n\n| scene | best grid | its error | its bake noise | fewest automatic probes matching it | their error | their bake noise | ratio (goal ≤ 0.4) |\n|---|---|---:|---:|---|---:|---:|---:|"
+        );
+        for (scene, figure) in &h.probes_to_match_best_grid_noise_free {
+            match figure {
+                Some(f) => {
+                    let _ = writeln!(
+                        text,
+                        "| {scene} | {} ({} probes) | {:.3e} | {} | {} ({} probes) | {:.3e} | {} | {:.2}{} |",
+                        f.grid,
+                        f.grid_probes,
+                        f.grid_mse,
+                        noise_cell(f.grid_bake_noise),
+                        f.placement,
+                        f.probes,
+                        f.mse,
+                        noise_cell(f.bake_noise),
+                        f.ratio,
+                        if f.grids_flat() {
+                            flat = true;
+                            " (flat)"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+                None => {
+                    let _ = writeln!(
+                        text,
+                        "| {scene} | — | — | — | no automatic placement reached the best grid's error | — | — | — |"
+                    );
+                }
+            }
+        }
+    }
     if flat {
         let _ = writeln!(
             text,
@@ -1666,15 +1851,25 @@ fn report_markdown(report: &SweepReport) -> String {
     }
     let _ = writeln!(
         text,
-        "\n| scene | grid | probes | grid MSE (tone-mapped) | automatic placement (≤ same count) | its MSE | ratio (goal ≤ 0.25) |"
+        "\n| scene | grid | probes | grid MSE (tone-mapped) | automatic placement (≤ same count) | its MSE | ratio (goal ≤ 0.25) | bake noise (grid / placement) | ratio, second bakes | ratio, noise taken out |"
     );
-    let _ = writeln!(text, "|---|---|---:|---:|---|---:|---:|");
+    let _ = writeln!(text, "|---|---|---:|---:|---|---:|---:|---|---:|---:|");
     for (scene, figures) in &h.mse_at_equal_count {
         for f in figures {
             let _ = writeln!(
                 text,
-                "| {scene} | {} | {} | {:.3e} | {} ({} probes) | {:.3e} | {:.2} |",
-                f.grid, f.probes, f.grid_mse, f.placement, f.placement_probes, f.mse, f.ratio
+                "| {scene} | {} | {} | {:.3e} | {} ({} probes) | {:.3e} | {:.2} | {} / {} | {} | {} |",
+                f.grid,
+                f.probes,
+                f.grid_mse,
+                f.placement,
+                f.placement_probes,
+                f.mse,
+                f.ratio,
+                noise_cell(f.grid_bake_noise),
+                noise_cell(f.bake_noise),
+                ratio_cell(f.second_bake_ratio),
+                ratio_cell(f.noise_free_ratio)
             );
         }
     }
@@ -1719,11 +1914,11 @@ fn report_markdown(report: &SweepReport) -> String {
         );
         let _ = writeln!(
             text,
-            "| scene | placement | probes | selection | trace algorithm | views | mean MSE (tone-mapped) | worst view | its MSE | mean reference noise | mean FLIP | mean UNKNOWN |"
+            "| scene | placement | probes | selection | trace algorithm | views | mean MSE (tone-mapped) | worst view | its MSE | mean reference noise | mean bake noise | mean MSE, second bake | mean FLIP | mean UNKNOWN |"
         );
         let _ = writeln!(
             text,
-            "|---|---|---:|---|---|---:|---:|---|---:|---:|---:|---:|"
+            "|---|---|---:|---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|"
         );
         for r in &report.view_sets {
             let (worst, worst_mse) = r
@@ -1732,7 +1927,7 @@ fn report_markdown(report: &SweepReport) -> String {
                 .unwrap_or_else(|| ("—".to_owned(), f64::NAN));
             let _ = writeln!(
                 text,
-                "| {} | {} | {} | {} | {} | {} | {:.3e} | {} | {:.3e} | {:.1e} | {:.4} | {:.1} % |",
+                "| {} | {} | {} | {} | {} | {} | {:.3e} | {} | {:.3e} | {:.1e} | {} | {} | {:.4} | {:.1} % |",
                 r.scene,
                 r.placement,
                 r.probes,
@@ -1743,6 +1938,8 @@ fn report_markdown(report: &SweepReport) -> String {
                 worst,
                 worst_mse,
                 r.trace.reference_noise,
+                noise_cell(r.trace.bake_noise),
+                mse_cell(r.trace.second_bake_mse_tonemapped),
                 r.trace.flip,
                 100.0 * r.trace.unknown_rate
             );
@@ -1777,9 +1974,7 @@ fn report_markdown(report: &SweepReport) -> String {
             r.trace.mse,
             r.trace.mse_tonemapped,
             r.trace.reference_noise,
-            r.trace
-                .bake_noise
-                .map_or("not measured".to_owned(), |n| format!("{n:.1e}")),
+            noise_cell(r.trace.bake_noise),
             r.trace.flip,
             100.0 * r.trace.status_agreement
         );
@@ -1936,6 +2131,7 @@ mod tests {
                 flip: 0.0,
                 reference_noise: 0.0,
                 bake_noise: None,
+                second_bake_mse_tonemapped: None,
                 classes: Vec::new(),
             },
         }

@@ -335,3 +335,31 @@ fn many_series_cycle_colours_and_markers() {
         assert!(text.contains(&format!("method {s}")));
     }
 }
+
+/// Two noise floors (the reference's and the bakes') are told apart: the first grey with
+/// long dashes, the second dark with short ones, each named in the legend.
+#[test]
+fn two_floors_are_drawn_apart_and_named() {
+    let (_guard, dir) = out_dir();
+    let (png, svg) = (dir.join("floors.png"), dir.join("floors.svg"));
+    let mut spec = speed_accuracy_spec();
+    spec.floors = vec![
+        probe_eval::chart::Floor {
+            name: "reference noise floor (2e-3)".into(),
+            y: 0.002,
+        },
+        probe_eval::chart::Floor {
+            name: "bake noise (1e-2)".into(),
+            y: 0.01,
+        },
+    ];
+    write_chart(&spec, &png, &svg).unwrap();
+    let image = image::open(&png).unwrap().to_rgb8();
+    let count = |rgb: [u8; 3]| image.pixels().filter(|p| p.0 == rgb).count();
+    // Each floor's dashes run across the plot: hundreds of pixels of its own shade.
+    assert!(count([120, 120, 120]) > 300, "{}", count([120, 120, 120]));
+    assert!(count([40, 40, 40]) > 300, "{}", count([40, 40, 40]));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.contains("reference noise floor (2e-3)"));
+    assert!(text.contains("bake noise (1e-2)"));
+}

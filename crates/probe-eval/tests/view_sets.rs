@@ -1,7 +1,7 @@
 //! The sweep over view sets (regions of interest, sampled viewpoints, error-driven sets):
 //! a small run on the built-in Cornell box.
 
-use probe_eval::sweep::{EvalConfig, SceneConfig, run_sweep, spearman};
+use probe_eval::sweep::{EvalConfig, SceneConfig, noise_free_error, run_sweep, spearman};
 use probe_eval::views::{ViewSetOptions, view_set};
 use probe_scene::Scene;
 
@@ -169,4 +169,94 @@ fn a_split_only_sweep_bakes_the_reflected_light_alone() {
     assert!(markdown.contains("bake of the light the surfaces reflect"));
     let markdown = std::fs::read_to_string(beside_out.path().join("report.md")).unwrap();
     assert!(!markdown.contains("bake of the light the surfaces reflect"));
+}
+
+/// `measure_bake_noise` bakes each placement a second time with another seed: every record
+/// gains the image's bake noise, and every other figure is the first bake's, as without it.
+#[test]
+fn a_second_bake_measures_each_images_bake_noise_and_changes_nothing_else() {
+    let config = EvalConfig {
+        tracers: vec!["hiz".into(), "split".into()],
+        placements: vec!["sdf".into()],
+        ..small_config()
+    };
+    let plain_out = tempfile::tempdir().unwrap();
+    let plain = run_sweep(&config, plain_out.path(), &|_| {}).unwrap();
+    let noisy_out = tempfile::tempdir().unwrap();
+    let noisy = run_sweep(
+        &EvalConfig {
+            measure_bake_noise: true,
+            ..config
+        },
+        noisy_out.path(),
+        &|_| {},
+    )
+    .unwrap();
+    assert_eq!(plain.records.len(), noisy.records.len());
+    assert!(!plain.records.is_empty());
+    for (a, b) in plain.records.iter().zip(&noisy.records) {
+        assert_eq!((&a.camera, &a.placement), (&b.camera, &b.placement));
+        assert_eq!(
+            a.trace.mse_tonemapped, b.trace.mse_tonemapped,
+            "{}",
+            a.camera
+        );
+        assert_eq!(a.trace.bake_noise, None);
+        assert_eq!(a.trace.second_bake_mse_tonemapped, None);
+        let second = b.trace.second_bake_mse_tonemapped.unwrap();
+        assert!(second > 0.0 && second != b.trace.mse_tonemapped, "{second}");
+        // 16² texels of 2 samples: the two bakes' images differ.
+        let noise = b.trace.bake_noise.unwrap();
+        assert!(noise > 0.0 && noise.is_finite(), "{noise}");
+        // Half the MSE between two images, each within its error of the reference.
+        assert!(noise <= 2.0 * b.trace.mse_tonemapped + 1e-12, "{noise}");
+    }
+    for set in &noisy.view_sets {
+        let views: Vec<f64> = noisy
+            .records
+            .iter()
+            .filter(|r| r.placement == set.placement && r.trace.tracer == set.trace.tracer)
+            .map(|r| r.trace.bake_noise.unwrap())
+            .collect();
+        let mean = views.iter().sum::<f64>() / views.len() as f64;
+        assert!((set.trace.bake_noise.unwrap() - mean).abs() <= 1e-12);
+        assert!(set.trace.second_bake_mse_tonemapped.is_some());
+    }
+    assert!(
+        noisy
+            .headline
+            .probes_to_match_best_grid_noise_free
+            .contains_key("cornell")
+    );
+    assert!(
+        plain
+            .headline
+            .probes_to_match_best_grid_noise_free
+            .is_empty()
+    );
+    // The error with the noise taken out: the two bakes' mean less both noises.
+    for r in noisy.view_sets.iter().chain(&noisy.records) {
+        let t = &r.trace;
+        let expected = 0.5 * (t.mse_tonemapped + t.second_bake_mse_tonemapped.unwrap())
+            - t.bake_noise.unwrap()
+            - t.reference_noise;
+        let error = noise_free_error(r).unwrap();
+        assert!(
+            (error - expected.max(0.0)).abs() <= 1e-15,
+            "{error} {expected}"
+        );
+        assert!(error <= t.mse_tonemapped.max(t.second_bake_mse_tonemapped.unwrap()));
+    }
+    for r in &plain.records {
+        assert_eq!(noise_free_error(r), None);
+    }
+    // Every CSV row has the header's columns, the second bake's MSE among them.
+    let csv = std::fs::read_to_string(noisy_out.path().join("results.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.contains(",bake_noise,second_bake_mse_tonemapped,"));
+    let columns = header.split(',').count();
+    assert!(csv.lines().all(|line| line.split(',').count() == columns));
+    let markdown = std::fs::read_to_string(noisy_out.path().join("report.md")).unwrap();
+    assert!(markdown.contains("With the noise taken out"));
+    assert!(!markdown.contains("not measured"));
 }

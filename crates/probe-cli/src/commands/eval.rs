@@ -40,6 +40,11 @@ pub struct Args {
     /// Seed of the sampled viewpoints (another seed gives a held-out view set).
     #[arg(long)]
     pub view_seed: Option<u64>,
+    /// Bake every placement twice (seeds differ by one) and report each image's bake noise
+    /// beside its error (the configuration's `measure_bake_noise`); bakes and traces take
+    /// twice as long.
+    #[arg(long)]
+    pub bake_noise: bool,
     /// The memory limit for the sweep's largest bake and its views.
     #[command(flatten)]
     pub memory: MemoryArgs,
@@ -60,6 +65,8 @@ fn check_memory(config: &EvalConfig, args: &Args) -> Result<(), CliError> {
         .chain(config.grid_counts.iter().map(|&n| n as usize))
         .max()
         .unwrap_or(0);
+    // With the bake noise measured, two bakes of a placement are held at once.
+    let bakes = if config.measure_bake_noise { 2 } else { 1 };
     let settings = probe_capture::BakeSettings {
         resolution: config.resolution,
         ..Default::default()
@@ -75,10 +82,11 @@ fn check_memory(config: &EvalConfig, args: &Args) -> Result<(), CliError> {
         u64::from(v.width) * u64::from(v.height) * (96 + 160 * u64::from(v.rays_per_pixel.max(1)));
     args.memory.limit().check(
         format_args!(
-            "a sweep whose largest bake has {largest} probes at {}² and {views} view(s) of a scene at {}×{}",
+            "a sweep whose largest bake ({bakes} at once) has {largest} probes at {}² and {views} view(s) of a scene at {}×{}",
             config.resolution, v.width, v.height
         ),
         probe_capture::bake_memory_estimate(largest, &settings)
+            .saturating_mul(bakes)
             .saturating_add(views.saturating_mul(per_view)),
     )?;
     Ok(())
@@ -107,6 +115,7 @@ pub fn run(args: &Args) -> Result<Box<dyn Report>, CliError> {
     if let Some(seed) = args.view_seed {
         config.view_seed = seed;
     }
+    config.measure_bake_noise |= args.bake_noise;
     if !args.region.is_empty() && args.scenes.is_empty() {
         return Err(CliError::InvalidArgument {
             parameter: "--region",
@@ -176,6 +185,13 @@ impl Report for EvalSummary {
                 None => text.push_str(&format!(
                     "{scene}: no automatic placement matched the best grid's MSE\n"
                 )),
+            }
+            // With the bakes' noise measured: the same with it taken out.
+            if let Some(Some(f)) = h.probes_to_match_best_grid_noise_free.get(scene) {
+                text.push_str(&format!(
+                    "{scene}: with the noise taken out, {} probes ({}) match the best grid {} ({} probes): ratio {:.2}\n",
+                    f.probes, f.placement, f.grid, f.grid_probes, f.ratio
+                ));
             }
         }
         if let Some([median, min, max]) = h.hiz_time_ratio {
