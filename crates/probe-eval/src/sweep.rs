@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
-use probe_capture::{Image, Sampling};
+use probe_capture::{Image, ProbeBake, Sampling};
 use probe_place::{
     atlas::{Atlas, AtlasParams, BackfaceVote, RewardWeights, free_space_grid},
     optimize::{DescentParams, GibbsParams, descend, gibbs},
@@ -341,7 +341,7 @@ fn hit_shading_for_tracers<'s>(
     device: &mut Device,
     tracers: &[Tracer],
     scene: &'s Scene,
-    baked: &probe_capture::ProbeBake,
+    baked: &ProbeBake,
     index: &BuiltIndex,
 ) -> Result<Option<HitShading<'s>>, EvalError> {
     if tracers.contains(&Tracer::Split) {
@@ -1250,33 +1250,28 @@ pub fn run_sweep(
             for (v, view) in views.iter().enumerate() {
                 for &selection in &selections {
                     for &tracer in &tracers {
-                        let Some(traced) = trace_only(
-                            &mut device,
-                            &scene,
-                            &baked,
-                            &index,
-                            view,
-                            &rays[v],
-                            tracer,
-                            selection,
-                            shading.as_ref(),
-                        )?
-                        else {
+                        // This view, tracer and selection through a bake.
+                        let mut trace_bake =
+                            |bake: &ProbeBake, shading: Option<&HitShading<'_>>| {
+                                trace_only(
+                                    &mut device,
+                                    &scene,
+                                    bake,
+                                    &index,
+                                    view,
+                                    &rays[v],
+                                    tracer,
+                                    selection,
+                                    shading,
+                                )
+                            };
+                        let Some(traced) = trace_bake(&baked, shading.as_ref())? else {
                             continue;
                         };
                         let twin = match &twin {
-                            Some((second, shading)) => trace_only(
-                                &mut device,
-                                &scene,
-                                second,
-                                &index,
-                                view,
-                                &rays[v],
-                                tracer,
-                                selection,
-                                shading.as_ref(),
-                            )?
-                            .map(|t| t.image),
+                            Some((second, shading)) => {
+                                trace_bake(second, shading.as_ref())?.map(|t| t.image)
+                            }
                             None => None,
                         };
                         let mb = |bytes: u64| bytes as f64 / 1e6;
