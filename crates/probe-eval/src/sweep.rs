@@ -112,8 +112,10 @@ pub struct EvalConfig {
     /// Bake every placement a second time with another seed (the view's seed + 1), trace
     /// each view through both and report each image's bake noise: half the tone-mapped MSE
     /// between the two images, the variance one bake's image carries
-    /// ([`TraceMetrics::bake_noise`]). Every other figure is the first bake's, as without it;
-    /// the bakes and traces take twice as long.
+    /// ([`TraceMetrics::bake_noise`]), with the second bake's own MSE
+    /// ([`TraceMetrics::second_bake_mse_tonemapped`]); the headline is then given again on
+    /// [`noise_free_error`]. Every other figure is the first bake's, as without it; the bakes
+    /// and traces take twice as long.
     pub measure_bake_noise: bool,
 }
 
@@ -879,9 +881,9 @@ pub struct MatchFigure {
     pub mse: f64,
     /// probes / grid_probes.
     pub ratio: f64,
-    /// The scene's worst grid's error over its best grid's (by the same error; at least 1). Near 1 (below
-    /// [`FLAT_GRID_SPREAD`]) the scene's error hardly moves with the probe count, so matching
-    /// the best grid with few probes says little about placement.
+    /// The scene's worst grid's error over its best grid's (by the same error; at least 1).
+    /// Near 1 (below [`FLAT_GRID_SPREAD`]) the scene's error hardly moves with the probe
+    /// count, so matching the best grid with few probes says little about placement.
     pub grid_spread: f64,
     /// The grid's image bake noise ([`EvalConfig::measure_bake_noise`]; `None` unmeasured).
     pub grid_bake_noise: Option<f64>,
