@@ -8,8 +8,8 @@
 //!   ([`capture_geometry`]), and jittered rays through each texel give the mean radiance of
 //!   the surface that centre ray met (emission, direct light from punctual lights, emissive
 //!   triangles, sun and sky, plus diffuse bounces; samples that pass that surface's edge are
-//!   left out of the texel's radiance, not of its irradiance). probe-octa then derives the padded maps, the min/max distance pyramid,
-//!   distance moments, irradiance and L2 SH. The result is a [`ProbeBake`] of flat,
+//!   left out of the texel's radiance, not of its irradiance). probe-octa then derives the
+//!   padded maps, the min/max distance pyramid, distance moments, irradiance and L2 SH. The result is a [`ProbeBake`] of flat,
 //!   probe-major, padded arrays that a GPU uploads as is;
 //! - **stores bakes** ([`ProbeBake::save`], [`ProbeBake::load`]): a directory with a JSON
 //!   manifest and 32-bit float EXR texture arrays with named channels, written atomically,

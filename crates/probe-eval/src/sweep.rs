@@ -415,6 +415,14 @@ pub fn mean_over_views(records: &[SweepRecord]) -> Vec<SweepRecord> {
         let n = group.len() as f64;
         let mean =
             |f: &dyn Fn(&TraceMetrics) -> f64| group.iter().map(|r| f(&r.trace)).sum::<f64>() / n;
+        // The mean of a figure measured only sometimes: `None` unless every view has it.
+        let mean_measured = |f: &dyn Fn(&TraceMetrics) -> Option<f64>| {
+            group
+                .iter()
+                .map(|r| f(&r.trace))
+                .sum::<Option<f64>>()
+                .map(|sum| sum / n)
+        };
         let first = group[0];
         let worst = group
             .iter()
@@ -453,16 +461,8 @@ pub fn mean_over_views(records: &[SweepRecord]) -> Vec<SweepRecord> {
             psnr: mean(&|t| t.psnr),
             flip: mean(&|t| t.flip),
             reference_noise: mean(&|t| t.reference_noise),
-            bake_noise: group
-                .iter()
-                .map(|r| r.trace.bake_noise)
-                .sum::<Option<f64>>()
-                .map(|sum| sum / n),
-            second_bake_mse_tonemapped: group
-                .iter()
-                .map(|r| r.trace.second_bake_mse_tonemapped)
-                .sum::<Option<f64>>()
-                .map(|sum| sum / n),
+            bake_noise: mean_measured(&|t| t.bake_noise),
+            second_bake_mse_tonemapped: mean_measured(&|t| t.second_bake_mse_tonemapped),
             classes,
         };
         out.push(SweepRecord {
